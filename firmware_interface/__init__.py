@@ -1,0 +1,1 @@
+"""MAVLink to and from a flight controller board, and the software board emulator."""

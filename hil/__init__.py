@@ -1,0 +1,1 @@
+"""The HIL bench: scenarios, the loop, sensors, telemetry, recording and metrics."""

@@ -1,0 +1,6 @@
+"""The quadrotor plant: an FMI 2.0 co-simulation FMU built from C, and a thin fmpy wrapper."""
+
+from plant_fmu.build import FmuBuildError, build_fmu, ensure_fmu
+from plant_fmu.plant import Plant, PlantError
+
+__all__ = ["FmuBuildError", "Plant", "PlantError", "build_fmu", "ensure_fmu"]

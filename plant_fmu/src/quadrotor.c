@@ -1,0 +1,452 @@
+/*
+ * Quadrotor plant as an FMI 2.0 co-simulation FMU.
+ *
+ * SI units; NED earth frame, FRD body frame, quaternion w-x-y-z rotating body FRD
+ * into NED (as PX4). Value references and defaults come from quadrotor_vars.h,
+ * which is generated together with modelDescription.xml from plant_fmu/variables.py.
+ *
+ * State x: pos_ned[3], vel_ned[3], q[4], omega_frd[3], rotor thrust[4].
+ * Each doStep integrates with fixed-step RK4 (parameter integration_step), the
+ * last sub-step shortened to land exactly on the communication point.
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "quadrotor_vars.h"
+
+#define NX 17
+#define X_POS 0
+#define X_VEL 3
+#define X_Q 6
+#define X_W 10
+#define X_T 13
+
+typedef struct {
+    double r[NVARS];
+    double x[NX];
+    double time;
+    int contact;
+    int initialized;
+    fmi2CallbackFunctions cb;
+    char name[64];
+} Model;
+
+#define P(m, name) ((m)->r[VR_##name])
+
+static void log_msg(Model *m, fmi2Status status, const char *category, const char *fmt, ...) {
+    char buf[512];
+    va_list ap;
+    if (!m->cb.logger) return;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    /* buf is already formatted; hosts such as fmpy read the format argument as the text */
+    for (char *c = buf; *c; c++)
+        if (*c == '%') *c = ' ';
+    m->cb.logger(m->cb.componentEnvironment, m->name, status, category, buf);
+}
+
+/* Rotation matrix body FRD -> NED from a unit quaternion (w, x, y, z). */
+static void quat_to_dcm(const double *q, double R[3][3]) {
+    double w = q[0], x = q[1], y = q[2], z = q[3];
+    R[0][0] = 1 - 2 * (y * y + z * z); R[0][1] = 2 * (x * y - w * z);     R[0][2] = 2 * (x * z + w * y);
+    R[1][0] = 2 * (x * y + w * z);     R[1][1] = 1 - 2 * (x * x + z * z); R[1][2] = 2 * (y * z - w * x);
+    R[2][0] = 2 * (x * z - w * y);     R[2][1] = 2 * (y * z + w * x);     R[2][2] = 1 - 2 * (x * x + y * y);
+}
+
+static double clamp01(double u) { return u < 0 ? 0 : (u > 1 ? 1 : u); }
+
+/* Commanded (steady-state) thrust of rotor i, including its health factor. */
+static double thrust_command(const Model *m, int i) {
+    double u = clamp01(m->r[VR_motor_cmd_1 + i]);
+    double k = P(m, thrust_curve_k);
+    double health = m->r[VR_motor_health_1 + i];
+    if (health < 0) health = 0;
+    return health * P(m, thrust_max) * ((1 - k) * u + k * u * u);
+}
+
+/* PX4 quad X: rotor positions (FRD, in units of arm/sqrt2) and spin (+1 CCW). */
+static const double ROTOR_X[4] = {+1, -1, +1, -1};
+static const double ROTOR_Y[4] = {+1, -1, -1, +1};
+static const double ROTOR_SPIN[4] = {+1, +1, -1, -1};
+
+/* Body torque from rotor thrusts: r x (0, 0, -T) plus drag torque, CCW rotors yaw right. */
+static void rotor_torque(const Model *m, const double *thrust, double tau[3]) {
+    double a = P(m, arm_length) / sqrt(2.0);
+    tau[0] = tau[1] = tau[2] = 0;
+    for (int i = 0; i < 4; i++) {
+        tau[0] += -a * ROTOR_Y[i] * thrust[i];
+        tau[1] += a * ROTOR_X[i] * thrust[i];
+        tau[2] += ROTOR_SPIN[i] * P(m, yaw_moment_coeff) * thrust[i];
+    }
+}
+
+static double total_mass(const Model *m) {
+    double payload = m->r[VR_payload_mass];
+    return P(m, mass) + (payload > 0 ? payload : 0);
+}
+
+/* Translational acceleration in NED of a free (airborne) body in state x. */
+static void free_accel(const Model *m, const double *x, double acc[3]) {
+    double R[3][3], v_air_b[3], drag_b[3], f_b[3], v_air[3];
+    const double *thrust = x + X_T;
+    double T = thrust[0] + thrust[1] + thrust[2] + thrust[3];
+    double mass = total_mass(m);
+    quat_to_dcm(x + X_Q, R);
+    v_air[0] = x[X_VEL + 0] - m->r[VR_wind_n];
+    v_air[1] = x[X_VEL + 1] - m->r[VR_wind_e];
+    v_air[2] = x[X_VEL + 2] - m->r[VR_wind_d];
+    for (int i = 0; i < 3; i++)
+        v_air_b[i] = R[0][i] * v_air[0] + R[1][i] * v_air[1] + R[2][i] * v_air[2];
+    drag_b[0] = -P(m, drag_coeff_x) * v_air_b[0];
+    drag_b[1] = -P(m, drag_coeff_y) * v_air_b[1];
+    drag_b[2] = -P(m, drag_coeff_z) * v_air_b[2];
+    f_b[0] = drag_b[0];
+    f_b[1] = drag_b[1];
+    f_b[2] = drag_b[2] - T;
+    for (int i = 0; i < 3; i++) {
+        double f_ned = R[i][0] * f_b[0] + R[i][1] * f_b[1] + R[i][2] * f_b[2];
+        acc[i] = f_ned / mass;
+    }
+    acc[0] += m->r[VR_f_dist_n] / mass;
+    acc[1] += m->r[VR_f_dist_e] / mass;
+    acc[2] += m->r[VR_f_dist_d] / mass + P(m, g);
+}
+
+static double ground_d(const Model *m) { return -P(m, ground_height); }
+
+/* dx/dt. While in ground contact the body is held: only the rotors evolve. */
+static void derivatives(const Model *m, const double *x, int contact, double *dx) {
+    const double *q = x + X_Q, *w = x + X_W, *thrust = x + X_T;
+    double tau[3];
+    double Ixx = P(m, Ixx), Iyy = P(m, Iyy), Izz = P(m, Izz), tau_m = P(m, motor_tau);
+
+    for (int i = 0; i < 4; i++)
+        dx[X_T + i] = tau_m > 0 ? (thrust_command(m, i) - thrust[i]) / tau_m : 0;
+    if (contact) {
+        memset(dx, 0, sizeof(double) * X_T);
+        return;
+    }
+    for (int i = 0; i < 3; i++) dx[X_POS + i] = x[X_VEL + i];
+    free_accel(m, x, dx + X_VEL);
+
+    /* q_dot = 0.5 q (x) (0, w) */
+    dx[X_Q + 0] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2]);
+    dx[X_Q + 1] = 0.5 * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1]);
+    dx[X_Q + 2] = 0.5 * (q[0] * w[1] - q[1] * w[2] + q[3] * w[0]);
+    dx[X_Q + 3] = 0.5 * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0]);
+
+    /* I w_dot = tau - w x I w */
+    rotor_torque(m, thrust, tau);
+    tau[0] += m->r[VR_tau_dist_x];
+    tau[1] += m->r[VR_tau_dist_y];
+    tau[2] += m->r[VR_tau_dist_z];
+    dx[X_W + 0] = (tau[0] - (Izz - Iyy) * w[1] * w[2]) / Ixx;
+    dx[X_W + 1] = (tau[1] - (Ixx - Izz) * w[2] * w[0]) / Iyy;
+    dx[X_W + 2] = (tau[2] - (Iyy - Ixx) * w[0] * w[1]) / Izz;
+}
+
+static void normalize_quat(double *q) {
+    double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    for (int i = 0; i < 4; i++) q[i] /= n;
+}
+
+/* Level the attitude, keeping heading: a landed quad sits on its legs. */
+static void level_keep_yaw(double *q) {
+    double yaw = atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
+    q[0] = cos(yaw / 2); q[1] = 0; q[2] = 0; q[3] = sin(yaw / 2);
+}
+
+/* Contact holds while the body touches the ground and the free forces push it down. */
+static int in_contact(const Model *m, const double *x) {
+    double acc[3];
+    if (x[X_POS + 2] < ground_d(m) - 1e-9) return 0;
+    free_accel(m, x, acc);
+    return acc[2] >= 0;
+}
+
+static void rk4_step(Model *m, double h) {
+    double k1[NX], k2[NX], k3[NX], k4[NX], xt[NX];
+    int contact;
+    if (P(m, motor_tau) <= 0) /* ideal rotors follow the command at once */
+        for (int i = 0; i < 4; i++) m->x[X_T + i] = thrust_command(m, i);
+    contact = in_contact(m, m->x);
+    m->contact = contact;
+    derivatives(m, m->x, contact, k1);
+    for (int i = 0; i < NX; i++) xt[i] = m->x[i] + 0.5 * h * k1[i];
+    derivatives(m, xt, contact, k2);
+    for (int i = 0; i < NX; i++) xt[i] = m->x[i] + 0.5 * h * k2[i];
+    derivatives(m, xt, contact, k3);
+    for (int i = 0; i < NX; i++) xt[i] = m->x[i] + h * k3[i];
+    derivatives(m, xt, contact, k4);
+    for (int i = 0; i < NX; i++) m->x[i] += h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]);
+    if (P(m, motor_tau) <= 0)
+        for (int i = 0; i < 4; i++) m->x[X_T + i] = thrust_command(m, i);
+    normalize_quat(m->x + X_Q);
+    if (m->x[X_POS + 2] > ground_d(m)) { /* touched down during this step */
+        m->x[X_POS + 2] = ground_d(m);
+        memset(m->x + X_VEL, 0, 3 * sizeof(double));
+        memset(m->x + X_W, 0, 3 * sizeof(double));
+        level_keep_yaw(m->x + X_Q);
+        m->contact = 1;
+    }
+}
+
+/* Copy the state and derived quantities into the output variables. */
+static void update_outputs(Model *m) {
+    double R[3][3], acc[3], tau[3];
+    const double *x = m->x, *q = x + X_Q;
+    double g = P(m, g);
+    int contact = in_contact(m, x);
+    double thrust_total = 0;
+
+    for (int i = 0; i < 3; i++) {
+        m->r[VR_pos_n + i] = x[X_POS + i];
+        m->r[VR_vel_n + i] = x[X_VEL + i];
+        m->r[VR_rate_x + i] = x[X_W + i];
+    }
+    for (int i = 0; i < 4; i++) {
+        m->r[VR_q_w + i] = q[i];
+        m->r[VR_thrust_1 + i] = x[X_T + i];
+        thrust_total += x[X_T + i];
+    }
+    m->r[VR_thrust_total] = thrust_total;
+    if (contact) acc[0] = acc[1] = acc[2] = 0;
+    else free_accel(m, x, acc);
+    m->r[VR_acc_n] = acc[0];
+    m->r[VR_acc_e] = acc[1];
+    m->r[VR_acc_d] = acc[2];
+    quat_to_dcm(q, R);
+    /* specific force = R^T (a - g e3), what an accelerometer reads */
+    for (int i = 0; i < 3; i++)
+        m->r[VR_specific_force_x + i] = R[0][i] * acc[0] + R[1][i] * acc[1] + R[2][i] * (acc[2] - g);
+    m->r[VR_roll] = atan2(2 * (q[0] * q[1] + q[2] * q[3]), 1 - 2 * (q[1] * q[1] + q[2] * q[2]));
+    {
+        double s = 2 * (q[0] * q[2] - q[3] * q[1]);
+        m->r[VR_pitch] = asin(s > 1 ? 1 : (s < -1 ? -1 : s));
+    }
+    m->r[VR_yaw] = atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
+    rotor_torque(m, x + X_T, tau);
+    m->r[VR_torque_x] = tau[0];
+    m->r[VR_torque_y] = tau[1];
+    m->r[VR_torque_z] = tau[2];
+    m->r[VR_total_mass] = total_mass(m);
+    m->r[VR_on_ground] = contact ? 1.0 : 0.0;
+    m->contact = contact;
+}
+
+static void initialize_state(Model *m) {
+    double yaw = P(m, init_yaw);
+    memset(m->x, 0, sizeof m->x);
+    m->x[X_POS + 0] = P(m, init_pos_n);
+    m->x[X_POS + 1] = P(m, init_pos_e);
+    m->x[X_POS + 2] = P(m, init_pos_d) > ground_d(m) ? ground_d(m) : P(m, init_pos_d);
+    m->x[X_Q + 0] = cos(yaw / 2);
+    m->x[X_Q + 3] = sin(yaw / 2);
+    for (int i = 0; i < 4; i++) m->x[X_T + i] = thrust_command(m, i);
+    update_outputs(m);
+}
+
+static void set_defaults(Model *m) {
+    memcpy(m->r, VAR_START, sizeof m->r);
+    m->time = 0;
+    initialize_state(m);
+}
+
+static int parameters_valid(Model *m) {
+    if (!(P(m, mass) > 0 && P(m, Ixx) > 0 && P(m, Iyy) > 0 && P(m, Izz) > 0)) {
+        log_msg(m, fmi2Error, "logStatusError", "mass and inertias must be positive");
+        return 0;
+    }
+    if (!(P(m, integration_step) > 0)) {
+        log_msg(m, fmi2Error, "logStatusError", "integration_step must be positive");
+        return 0;
+    }
+    if (!(P(m, arm_length) > 0 && P(m, thrust_max) > 0 && P(m, motor_tau) >= 0)) {
+        log_msg(m, fmi2Error, "logStatusError", "arm_length, thrust_max must be > 0 and motor_tau >= 0");
+        return 0;
+    }
+    return 1;
+}
+
+/* ---------------- FMI 2.0 API ---------------- */
+
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String guid,
+                              fmi2String resourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    Model *m;
+    (void)resourceLocation; (void)visible; (void)loggingOn;
+    if (fmuType != fmi2CoSimulation || !guid || strcmp(guid, MODEL_GUID) != 0) return NULL;
+    m = (Model *)calloc(1, sizeof(Model));
+    if (!m) return NULL;
+    if (functions) m->cb = *functions;
+    snprintf(m->name, sizeof m->name, "%s", instanceName ? instanceName : "Quadrotor");
+    set_defaults(m);
+    return m;
+}
+
+void fmi2FreeInstance(fmi2Component c) { free(c); }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[]) {
+    (void)c; (void)on; (void)n; (void)cat;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, fmi2Real tol,
+                               fmi2Real startTime, fmi2Boolean stopDefined, fmi2Real stopTime) {
+    (void)tolDefined; (void)tol; (void)stopDefined; (void)stopTime;
+    ((Model *)c)->time = startTime;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
+    Model *m = (Model *)c;
+    if (!parameters_valid(m)) return fmi2Error;
+    initialize_state(m);
+    m->initialized = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component c) { (void)c; return fmi2OK; }
+
+fmi2Status fmi2Reset(fmi2Component c) {
+    Model *m = (Model *)c;
+    set_defaults(m);
+    m->initialized = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real value[]) {
+    Model *m = (Model *)c;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= NVARS) return fmi2Error;
+        value[i] = m->r[vr[i]];
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real value[]) {
+    Model *m = (Model *)c;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= NVARS || VAR_CAUSALITY[vr[i]] == CAUSALITY_OUTPUT) return fmi2Error;
+        if (VAR_CAUSALITY[vr[i]] == CAUSALITY_PARAMETER && m->initialized) {
+            log_msg(m, fmi2Error, "logStatusError", "parameter %u is fixed after initialization", vr[i]);
+            return fmi2Error;
+        }
+        if (!isfinite(value[i])) {
+            log_msg(m, fmi2Error, "logStatusError", "non-finite value for variable %u", vr[i]);
+            return fmi2Error;
+        }
+        m->r[vr[i]] = value[i];
+    }
+    if (!m->initialized) initialize_state(m);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean value[]) {
+    Model *m = (Model *)c;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] != VR_on_ground) return fmi2Error;
+        value[i] = m->r[vr[i]] != 0.0;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer value[]) {
+    (void)c; (void)vr; (void)value;
+    return n == 0 ? fmi2OK : fmi2Error;
+}
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String value[]) {
+    (void)c; (void)vr; (void)value;
+    return n == 0 ? fmi2OK : fmi2Error;
+}
+fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer value[]) {
+    (void)c; (void)vr; (void)value;
+    return n == 0 ? fmi2OK : fmi2Error;
+}
+fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean value[]) {
+    (void)c; (void)vr; (void)value;
+    return n == 0 ? fmi2OK : fmi2Error;
+}
+fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String value[]) {
+    (void)c; (void)vr; (void)value;
+    return n == 0 ? fmi2OK : fmi2Error;
+}
+
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior) {
+    Model *m = (Model *)c;
+    double h_int = P(m, integration_step), done = 0;
+    (void)noSetPrior;
+    if (h <= 0) return h == 0 ? fmi2OK : fmi2Error;
+    while (h - done > 1e-12) {
+        double step = h - done < h_int * (1 + 1e-9) ? h - done : h_int;
+        rk4_step(m, step);
+        done += step;
+    }
+    for (int i = 0; i < NX; i++) {
+        if (!isfinite(m->x[i])) {
+            log_msg(m, fmi2Error, "logStatusError", "state diverged (non-finite) at t = %g s", t + h);
+            return fmi2Error;
+        }
+    }
+    m->time = t + h;
+    update_outputs(m);
+    return fmi2OK;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) { (void)c; return fmi2Error; }
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind s, fmi2Status *value) {
+    (void)c; (void)s; *value = fmi2OK; return fmi2Discard;
+}
+fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s, fmi2Real *value) {
+    Model *m = (Model *)c;
+    if (s != fmi2LastSuccessfulTime) return fmi2Discard;
+    *value = m->time;
+    return fmi2OK;
+}
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value) {
+    (void)c; (void)s; (void)value; return fmi2Discard;
+}
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value) {
+    (void)c; (void)s; (void)value; return fmi2Discard;
+}
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value) {
+    (void)c; (void)s; (void)value; return fmi2Discard;
+}
+
+/* Optional capabilities this FMU declares as unsupported in modelDescription.xml. */
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) { (void)c; (void)s; return fmi2Error; }
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) { (void)c; (void)s; return fmi2Error; }
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) { (void)c; (void)s; return fmi2Error; }
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
+    (void)c; (void)s; (void)n; return fmi2Error;
+}
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
+    (void)c; (void)s; (void)b; (void)n; return fmi2Error;
+}
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s) {
+    (void)c; (void)b; (void)n; (void)s; return fmi2Error;
+}
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
+                                        const fmi2ValueReference z[], size_t nz, const fmi2Real dv[],
+                                        fmi2Real dz[]) {
+    (void)c; (void)u; (void)nu; (void)z; (void)nz; (void)dv; (void)dz; return fmi2Error;
+}
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    (void)c; (void)vr; (void)n; (void)order; (void)value; return fmi2Error;
+}
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    (void)c; (void)vr; (void)n; (void)order; (void)value; return fmi2Error;
+}

@@ -1,0 +1,99 @@
+"""The plant FMU's public interface, as one table.
+
+modelDescription.xml and the C header of value references are both generated from
+this table, so the XML, the C code and the Python wrapper can never disagree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+Causality = Literal["parameter", "input", "output"]
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI scalar variable; `vr` is its index in the table."""
+
+    name: str
+    causality: Causality
+    unit: str
+    description: str
+    start: float | None = None
+    boolean: bool = False
+
+
+def _p(name: str, start: float, unit: str, description: str) -> Variable:
+    return Variable(name, "parameter", unit, description, start)
+
+
+def _u(name: str, start: float, unit: str, description: str) -> Variable:
+    return Variable(name, "input", unit, description, start)
+
+
+def _y(name: str, unit: str, description: str, boolean: bool = False) -> Variable:
+    return Variable(name, "output", unit, description, boolean=boolean)
+
+
+# Defaults: a 1 kg inspection quad (arm 0.25 m, 4 x 5 N rotors) that hovers near
+# mid-throttle: T_hover = 9.80665/4 = 2.45 N per rotor -> u ≈ 0.61 with k = 0.5.
+PARAMETERS: tuple[Variable, ...] = (
+    _p("mass", 1.0, "kg", "airframe mass without payload"),
+    _p("Ixx", 0.011, "kg.m2", "inertia about body x (FRD)"),
+    _p("Iyy", 0.011, "kg.m2", "inertia about body y (FRD)"),
+    _p("Izz", 0.021, "kg.m2", "inertia about body z (FRD)"),
+    _p("arm_length", 0.25, "m", "centre of gravity to rotor axis (quad X, rotors at 45 deg)"),
+    _p("thrust_max", 5.0, "N", "thrust of one rotor at command 1"),
+    _p("thrust_curve_k", 0.5, "1", "T = T_max((1-k)u + k u^2), as PX4's THR_MDL_FAC"),
+    _p("motor_tau", 0.02, "s", "rotor thrust first-order lag time constant (0 = ideal)"),
+    _p("yaw_moment_coeff", 0.016, "m", "rotor drag torque per newton of thrust"),
+    _p("drag_coeff_x", 0.25, "N.s/m", "linear drag along body x against air-relative velocity"),
+    _p("drag_coeff_y", 0.25, "N.s/m", "linear drag along body y against air-relative velocity"),
+    _p("drag_coeff_z", 0.35, "N.s/m", "linear drag along body z against air-relative velocity"),
+    _p("g", 9.80665, "m/s2", "gravity, +down in NED"),
+    _p("ground_height", 0.0, "m", "ground altitude above the NED origin (ground plane at pos_d = -ground_height)"),
+    _p("init_pos_n", 0.0, "m", "initial north position"),
+    _p("init_pos_e", 0.0, "m", "initial east position"),
+    _p("init_pos_d", 0.0, "m", "initial down position"),
+    _p("init_yaw", 0.0, "rad", "initial heading"),
+    _p("integration_step", 0.001, "s", "fixed RK4 step inside each doStep"),
+)
+
+INPUTS: tuple[Variable, ...] = (
+    *(_u(f"motor_cmd_{i}", 0.0, "1", f"rotor {i} command 0..1 (PX4 quad X order)") for i in range(1, 5)),
+    *(_u(f"motor_health_{i}", 1.0, "1", f"rotor {i} thrust multiplier (1 = healthy)") for i in range(1, 5)),
+    _u("wind_n", 0.0, "m/s", "wind velocity north"),
+    _u("wind_e", 0.0, "m/s", "wind velocity east"),
+    _u("wind_d", 0.0, "m/s", "wind velocity down"),
+    _u("f_dist_n", 0.0, "N", "disturbance force north"),
+    _u("f_dist_e", 0.0, "N", "disturbance force east"),
+    _u("f_dist_d", 0.0, "N", "disturbance force down"),
+    _u("tau_dist_x", 0.0, "N.m", "disturbance torque about body x (FRD)"),
+    _u("tau_dist_y", 0.0, "N.m", "disturbance torque about body y (FRD)"),
+    _u("tau_dist_z", 0.0, "N.m", "disturbance torque about body z (FRD)"),
+    _u("payload_mass", 0.0, "kg", "payload at the centre of gravity"),
+)
+
+OUTPUTS: tuple[Variable, ...] = (
+    *(_y(f"pos_{a}", "m", f"position {a.upper()} (NED)") for a in "ned"),
+    *(_y(f"vel_{a}", "m/s", f"velocity {a.upper()} (NED)") for a in "ned"),
+    *(_y(f"acc_{a}", "m/s2", f"acceleration {a.upper()} (NED)") for a in "ned"),
+    *(_y(f"q_{a}", "1", f"attitude quaternion {a} (body FRD to NED)") for a in "wxyz"),
+    _y("roll", "rad", "ZYX Euler roll"),
+    _y("pitch", "rad", "ZYX Euler pitch"),
+    _y("yaw", "rad", "ZYX Euler yaw"),
+    *(_y(f"rate_{a}", "rad/s", f"body rate about {a} (FRD)") for a in "xyz"),
+    *(_y(f"specific_force_{a}", "m/s2", f"accelerometer reading {a} (FRD)") for a in "xyz"),
+    *(_y(f"thrust_{i}", "N", f"rotor {i} thrust") for i in range(1, 5)),
+    _y("thrust_total", "N", "sum of rotor thrusts"),
+    *(_y(f"torque_{a}", "N.m", f"rotor torque about body {a} (FRD)") for a in "xyz"),
+    _y("total_mass", "kg", "mass + payload"),
+    _y("on_ground", "", "resting on the ground plane", boolean=True),
+)
+
+VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS
+VR: dict[str, int] = {v.name: i for i, v in enumerate(VARIABLES)}
+PARAMETER_NAMES = tuple(v.name for v in PARAMETERS)
+INPUT_NAMES = tuple(v.name for v in INPUTS)
+OUTPUT_NAMES = tuple(v.name for v in OUTPUTS)

@@ -1,0 +1,36 @@
+/* A minimal FMI 2.0 host in plain C: proves the binary loads outside Python
+ * (e.g. that libm is linked) and steps. Usage: c_host LIBRARY GUID */
+#include <dlfcn.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include "fmi2Functions.h"
+
+static void logger(fmi2ComponentEnvironment e, fmi2String n, fmi2Status s, fmi2String c, fmi2String m, ...) {
+    (void)e; (void)n; (void)s; (void)c;
+    fprintf(stderr, "%s\n", m);
+}
+
+int main(int argc, char **argv) {
+    if (argc != 4) return 2;
+    void *lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
+    if (!lib) { fprintf(stderr, "dlopen: %s\n", dlerror()); return 3; }
+    fmi2InstantiateTYPE *inst = (fmi2InstantiateTYPE *)dlsym(lib, "fmi2Instantiate");
+    fmi2SetupExperimentTYPE *setup = (fmi2SetupExperimentTYPE *)dlsym(lib, "fmi2SetupExperiment");
+    fmi2EnterInitializationModeTYPE *enter = (fmi2EnterInitializationModeTYPE *)dlsym(lib, "fmi2EnterInitializationMode");
+    fmi2ExitInitializationModeTYPE *leave = (fmi2ExitInitializationModeTYPE *)dlsym(lib, "fmi2ExitInitializationMode");
+    fmi2DoStepTYPE *step = (fmi2DoStepTYPE *)dlsym(lib, "fmi2DoStep");
+    fmi2GetRealTYPE *get = (fmi2GetRealTYPE *)dlsym(lib, "fmi2GetReal");
+    fmi2FreeInstanceTYPE *release = (fmi2FreeInstanceTYPE *)dlsym(lib, "fmi2FreeInstance");
+    fmi2CallbackFunctions cb = {logger, NULL, NULL, NULL, NULL};
+    fmi2Component c = inst("host", fmi2CoSimulation, argv[2], "", &cb, fmi2False, fmi2False);
+    if (!c) return 4;
+    fmi2ValueReference vr_pos_d = (fmi2ValueReference)atoi(argv[3]);
+    double pos_d = 0;
+    if (setup(c, fmi2False, 0, 0, fmi2False, 0) || enter(c) || leave(c)) return 5;
+    for (int i = 0; i < 250; i++)
+        if (step(c, i * 0.004, 0.004, fmi2True)) return 6;
+    get(c, &vr_pos_d, 1, &pos_d);
+    printf("pos_d=%.6f\n", pos_d);
+    release(c);
+    return 0;
+}
