@@ -1,0 +1,244 @@
+"""A session with a flight controller board over a `Link`.
+
+Heartbeats, the handshake, sensor frames out and actuator frames in with PX4 SITL's
+lockstep bookkeeping, arming and offboard through COMMAND_LONG / COMMAND_ACK, setpoints,
+and a watchdog. The same code talks to a Pixhawk, PX4 SITL and the emulator.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.link import Link, LinkError, Message
+
+MAV_TYPE_GENERIC, MAV_AUTOPILOT_INVALID, MAV_AUTOPILOT_PX4 = 0, 8, 12
+MAV_CMD_DO_SET_MODE, MAV_CMD_COMPONENT_ARM_DISARM = 176, 400
+MAV_RESULT_ACCEPTED = 0
+MAV_FRAME_LOCAL_NED = 1
+PX4_CUSTOM_MAIN_MODE_OFFBOARD = 6
+SETPOINT_IGNORE_YAW_RATE = 2048  # SET_POSITION_TARGET_LOCAL_NED.type_mask: use pos, vel, acc, yaw
+BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
+
+
+class BoardKind(Enum):
+    """How the board is attached; decides whether ground truth may be sent."""
+
+    HITL = "hitl"  # a real board on serial/USB: never send HIL_STATE_QUATERNION
+    SITL = "sitl"  # PX4 SITL on TCP
+    EMULATOR = "emulator"  # our emulator on a pty
+
+
+class BoardError(LinkError):
+    """The board did not answer as expected (no heartbeat, command refused, silent)."""
+
+
+@dataclass(frozen=True)
+class BoardInfo:
+    system_id: int
+    component_id: int
+    autopilot: int
+    vehicle_type: int
+    hil_enabled: bool
+    armed: bool
+
+
+@dataclass
+class BoardState:
+    """What the board last told us, for the bench's recording and summary."""
+
+    info: BoardInfo | None = None
+    armed: bool = False
+    custom_mode: int = 0
+    status_texts: list[tuple[int, str]] = field(default_factory=list)
+    latest: dict[str, Message] = field(default_factory=dict)
+    acks: dict[int, int] = field(default_factory=dict)
+
+
+class BoardSession:
+    """One conversation with one board. Times are monotonic seconds unless named `_us`."""
+
+    def __init__(self, link: Link, kind: BoardKind, heartbeat_period_s: float = 1.0,
+                 watchdog_s: float = 1.0, free_run_wait_s: float = 0.01,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.link = link
+        self.kind = kind
+        self.heartbeat_period_s = heartbeat_period_s
+        self.watchdog_s = watchdog_s
+        self.free_run_wait_s = free_run_wait_s
+        self.clock = clock
+        self.state = BoardState()
+        self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
+        self.actuators: codec.ActuatorOutputs | None = None
+        self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
+        self._last_heartbeat_sent = -1e9
+        self._last_rx = clock()
+        self.link.encoder.component_id = BENCH_COMPONENT_ID
+        self.start_time = clock()
+
+    # --- housekeeping -------------------------------------------------------------
+    def service(self) -> None:
+        """Send our heartbeat when due (1 Hz), as jMAVSim/Gazebo do; PX4 USB needs one to start MAVLink."""
+        now = self.clock()
+        if now - self._last_heartbeat_sent >= self.heartbeat_period_s:
+            self.link.send("HEARTBEAT", type=MAV_TYPE_GENERIC, autopilot=MAV_AUTOPILOT_INVALID,
+                           base_mode=0, custom_mode=0, system_status=0, mavlink_version=3)
+            self._last_heartbeat_sent = now
+
+    def check_watchdog(self) -> None:
+        silent = self.clock() - self._last_rx
+        if silent > self.watchdog_s:
+            raise BoardError(f"board silent for {silent:.2f} s on {self.link.name} (watchdog {self.watchdog_s:.2f} s)")
+
+    def poll(self, timeout_s: float = 0.0) -> list[Message]:
+        """Read and handle whatever arrives within `timeout_s`."""
+        messages = self.link.receive(timeout_s)
+        for msg in messages:
+            self._handle(msg)
+        return messages
+
+    def _handle(self, msg: Message) -> None:
+        self._last_rx = self.clock()
+        kind = msg.get_type()
+        info = self.state.info
+        if info is not None and msg.get_srcSystem() != info.system_id and kind != "HEARTBEAT":
+            return
+        if kind == "HIL_ACTUATOR_CONTROLS":
+            self.actuators = codec.read_actuator_controls(msg)
+            if self.kind is not BoardKind.HITL:
+                self.lockstep = self.lockstep or self.actuators.lockstep
+            if self._awaited_t_us is not None and self.actuators.t_us >= self._awaited_t_us:
+                self._awaited_t_us = None
+        elif kind == "HEARTBEAT":
+            self._handle_heartbeat(msg)
+        elif kind == "COMMAND_ACK":
+            self.state.acks[msg.command] = msg.result
+        elif kind == "STATUSTEXT":
+            self.state.status_texts.append((msg.severity, msg.text))
+        self.state.latest[kind] = msg
+
+    def _handle_heartbeat(self, msg: Message) -> None:
+        if msg.autopilot == MAV_AUTOPILOT_INVALID:  # another simulator or GCS, not the board
+            return
+        armed = bool(msg.base_mode & codec.MODE_FLAG_ARMED)
+        self.state.info = BoardInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.autopilot, msg.type,
+                                    bool(msg.base_mode & codec.MODE_FLAG_HIL), armed)
+        self.state.armed = armed
+        self.state.custom_mode = msg.custom_mode
+        self.link.encoder.system_id = msg.get_srcSystem()  # adopt the board's system id, as jMAVSim does
+
+    # --- handshake ----------------------------------------------------------------
+    def wait_heartbeat(self, timeout_s: float = 5.0) -> BoardInfo:
+        deadline = self.clock() + timeout_s
+        while self.state.info is None:
+            if self.clock() > deadline:
+                raise BoardError(
+                    f"no heartbeat on {self.link.name} within {timeout_s:g} s — is SYS_HITL=1 set, the board "
+                    "rebooted, and the port not held by QGroundControl?")
+            self.service()
+            self.poll(0.05)
+        self._last_rx = self.clock()
+        return self.state.info
+
+    # --- sensors and actuators ----------------------------------------------------
+    def send_sensors(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
+                     truth: codec.GroundTruth | None = None) -> None:
+        if gps is not None:
+            self.link.send_fields("HIL_GPS", codec.hil_gps_fields(gps))
+        if truth is not None:
+            self.send_ground_truth(truth)
+        self.link.send_fields("HIL_SENSOR", codec.hil_sensor_fields(readings))
+
+    def send_ground_truth(self, truth: codec.GroundTruth) -> bool:
+        """HIL_STATE_QUATERNION to SITL or the emulator; refused for a real board (it would override EKF2)."""
+        if self.kind is BoardKind.HITL:
+            return False
+        self.link.send_fields("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
+        return True
+
+    def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
+                 truth: codec.GroundTruth | None = None) -> codec.ActuatorOutputs | None:
+        """One bench step: send sensors, then in lockstep wait for the reply to this step.
+
+        PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's time_usec in
+        HIL_ACTUATOR_CONTROLS, so stale replies to earlier steps are skipped. Before lockstep
+        starts (free-run) each step waits at most `free_run_wait_s` for a first reply, so no
+        backlog of replies builds up. A real board (HITL) is never waited for: it runs on its
+        own clock. Raises BoardError when the watchdog expires.
+        """
+        self.service()
+        self.send_sensors(readings, gps, truth)
+        if self.kind is BoardKind.HITL:
+            self.poll(0.0)
+            self.check_watchdog()
+            return self.actuators
+        self._awaited_t_us = readings.t_us
+        wait_s = self.watchdog_s if self.lockstep else self.free_run_wait_s
+        deadline = self.clock() + wait_s
+        while self._awaited_t_us is not None:
+            remaining = deadline - self.clock()
+            if remaining <= 0:
+                if self.lockstep:
+                    self.check_watchdog()
+                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog_s:.2f} s in lockstep")
+                self.check_watchdog()
+                break
+            self.poll(remaining)
+        self._awaited_t_us = None
+        return self.actuators
+
+    # --- commands -----------------------------------------------------------------
+    def _target(self) -> tuple[int, int]:
+        info = self.state.info
+        return (info.system_id, info.component_id) if info else (1, 1)
+
+    def command(self, command: int, params: tuple[float, ...], timeout_s: float = 3.0,
+                pump: Callable[[], Any] | None = None) -> int:
+        """COMMAND_LONG, waiting for its COMMAND_ACK; returns MAV_RESULT. `pump` keeps a
+        lockstep simulation stepping while we wait (PX4 SITL's clock only moves with sensors)."""
+        system, component = self._target()
+        padded = tuple(params) + (0.0,) * (7 - len(params))
+        self.state.acks.pop(command, None)
+        deadline = self.clock() + timeout_s
+        last_sent = -1e9
+        while command not in self.state.acks:
+            now = self.clock()
+            if now > deadline:
+                raise BoardError(f"no COMMAND_ACK for command {command} within {timeout_s:g} s")
+            if now - last_sent > 0.5:
+                self.link.send("COMMAND_LONG", target_system=system, target_component=component,
+                               command=command, confirmation=0, param1=padded[0], param2=padded[1],
+                               param3=padded[2], param4=padded[3], param5=padded[4], param6=padded[5],
+                               param7=padded[6])
+                last_sent = now
+            if pump is not None:
+                pump()
+            else:
+                self.service()
+                self.poll(0.02)
+        return self.state.acks[command]
+
+    def arm(self, arm: bool = True, **kwargs: Any) -> None:
+        result = self.command(MAV_CMD_COMPONENT_ARM_DISARM, (1.0 if arm else 0.0,), **kwargs)
+        if result != MAV_RESULT_ACCEPTED:
+            texts = "; ".join(t for _, t in self.state.status_texts[-3:])
+            raise BoardError(f"{'arming' if arm else 'disarming'} refused (MAV_RESULT {result}){': ' + texts if texts else ''}")
+
+    def set_offboard(self, **kwargs: Any) -> None:
+        result = self.command(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM), float(PX4_CUSTOM_MAIN_MODE_OFFBOARD)),
+                              **kwargs)
+        if result != MAV_RESULT_ACCEPTED:
+            raise BoardError(f"offboard mode refused (MAV_RESULT {result})")
+
+    def send_setpoint(self, t_boot_ms: int, pos_ned: codec.Vec3, vel_ned: codec.Vec3, acc_ned: codec.Vec3,
+                      yaw_rad: float) -> None:
+        system, component = self._target()
+        self.link.send("SET_POSITION_TARGET_LOCAL_NED", time_boot_ms=t_boot_ms & 0xFFFFFFFF,
+                       target_system=system, target_component=component, coordinate_frame=MAV_FRAME_LOCAL_NED,
+                       type_mask=SETPOINT_IGNORE_YAW_RATE, x=pos_ned[0], y=pos_ned[1], z=pos_ned[2],
+                       vx=vel_ned[0], vy=vel_ned[1], vz=vel_ned[2], afx=acc_ned[0], afy=acc_ned[1],
+                       afz=acc_ned[2], yaw=yaw_rad, yaw_rate=0.0)

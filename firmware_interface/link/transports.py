@@ -1,0 +1,237 @@
+"""Byte transports under a MAVLink link: serial port, pty, TCP server/client, UDP in/out.
+
+Each has `read(timeout_s)` that returns what arrived (possibly b"") without blocking past
+the timeout, `write(data)`, and `close()`. A transport whose other end went away raises
+`LinkLost` with the reason.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import select
+import socket
+from typing import Protocol
+
+import serial
+
+from firmware_interface.link.errors import LinkError, LinkLost
+
+READ_CHUNK = 4096
+
+
+class Transport(Protocol):
+    name: str
+
+    def read(self, timeout_s: float) -> bytes: ...
+
+    def write(self, data: bytes) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class FdTransport:
+    """A raw file descriptor, e.g. the master side of a pty pair the bench created."""
+
+    def __init__(self, fd: int, name: str) -> None:
+        self.fd = fd
+        self.name = name
+        os.set_blocking(fd, False)
+
+    def read(self, timeout_s: float) -> bytes:
+        ready, _, _ = select.select([self.fd], [], [], max(timeout_s, 0.0))
+        if not ready:
+            return b""
+        try:
+            data = os.read(self.fd, READ_CHUNK)
+        except BlockingIOError:
+            return b""
+        except OSError as exc:
+            if exc.errno == errno.EIO:
+                raise LinkLost(f"{self.name}: the other end of the pty closed") from exc
+            raise LinkLost(f"{self.name}: {exc.strerror}") from exc
+        if not data:
+            raise LinkLost(f"{self.name}: end of stream")
+        return data
+
+    def write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            try:
+                written = os.write(self.fd, view)
+            except BlockingIOError:
+                select.select([], [self.fd], [], 0.1)
+                continue
+            except OSError as exc:
+                raise LinkLost(f"{self.name}: {exc.strerror}") from exc
+            view = view[written:]
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
+
+
+class SerialTransport:
+    """A serial port (Pixhawk USB CDC, a UART, or a pty slave) via pyserial: 8N1, no flow control."""
+
+    def __init__(self, path: str, baud: int = 921600) -> None:
+        self.name = path
+        try:
+            self._port = serial.Serial(path, baud, bytesize=8, parity="N", stopbits=1, timeout=0,
+                                       write_timeout=1.0, rtscts=False, xonxoff=False, exclusive=True)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkError(f"cannot open {path}: {exc} (is QGroundControl or another program holding it?)") from exc
+
+    def read(self, timeout_s: float) -> bytes:
+        try:
+            ready, _, _ = select.select([self._port.fileno()], [], [], max(timeout_s, 0.0))
+            if not ready:
+                return b""
+            return self._port.read(READ_CHUNK)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkLost(f"{self.name}: port went away ({exc})") from exc
+
+    def write(self, data: bytes) -> None:
+        try:
+            self._port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise LinkLost(f"{self.name}: port went away ({exc})") from exc
+
+    def close(self) -> None:
+        self._port.close()
+
+
+class _SocketTransport:
+    """Shared read/write for a connected stream socket."""
+
+    name: str
+    _sock: socket.socket | None
+
+    def read(self, timeout_s: float) -> bytes:
+        sock = self._require()
+        ready, _, _ = select.select([sock], [], [], max(timeout_s, 0.0))
+        if not ready:
+            return b""
+        try:
+            data = sock.recv(READ_CHUNK)
+        except OSError as exc:
+            raise LinkLost(f"{self.name}: {exc.strerror or exc}") from exc
+        if not data:
+            raise LinkLost(f"{self.name}: the peer closed the connection")
+        return data
+
+    def write(self, data: bytes) -> None:
+        try:
+            self._require().sendall(data)
+        except OSError as exc:
+            raise LinkLost(f"{self.name}: {exc.strerror or exc}") from exc
+
+    def _require(self) -> socket.socket:
+        if self._sock is None:
+            raise LinkLost(f"{self.name}: not connected")
+        return self._sock
+
+    def close(self) -> None:
+        if self._sock is not None:
+            self._sock.close()
+            self._sock = None
+
+
+class TcpServerTransport(_SocketTransport):
+    """Listens and accepts one client, as a simulator does for PX4 SITL (`tcpin:0.0.0.0:4560`)."""
+
+    def __init__(self, host: str, port: int) -> None:
+        self.name = f"tcpin:{host}:{port}"
+        self._sock = None
+        self._listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            self._listener.bind((host, port))
+        except OSError as exc:
+            self._listener.close()
+            raise LinkError(f"cannot listen on {host}:{port}: {exc.strerror}") from exc
+        self._listener.listen(1)
+        self.port = self._listener.getsockname()[1]
+
+    def accept(self, timeout_s: float) -> bool:
+        """Wait up to `timeout_s` for the client; True once connected."""
+        if self._sock is not None:
+            return True
+        ready, _, _ = select.select([self._listener], [], [], max(timeout_s, 0.0))
+        if not ready:
+            return False
+        sock, _ = self._listener.accept()
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._sock = sock
+        return True
+
+    def read(self, timeout_s: float) -> bytes:
+        if self._sock is None:
+            self.accept(timeout_s)
+            return b""
+        return super().read(timeout_s)
+
+    def write(self, data: bytes) -> None:
+        if self._sock is not None:  # nothing to send to until the client connects
+            super().write(data)
+
+    def close(self) -> None:
+        super().close()
+        self._listener.close()
+
+
+class TcpClientTransport(_SocketTransport):
+    """Connects to a TCP server (`tcp:HOST:PORT`)."""
+
+    def __init__(self, host: str, port: int, timeout_s: float = 5.0) -> None:
+        self.name = f"tcp:{host}:{port}"
+        try:
+            self._sock = socket.create_connection((host, port), timeout=timeout_s)
+        except OSError as exc:
+            raise LinkError(f"cannot connect to {host}:{port}: {exc.strerror or exc}") from exc
+        self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        self._sock.settimeout(None)
+
+
+class UdpTransport:
+    """`udpin:HOST:PORT` binds and answers the last sender; `udpout:HOST:PORT` sends to that address."""
+
+    def __init__(self, host: str, port: int, listen: bool) -> None:
+        self.name = f"{'udpin' if listen else 'udpout'}:{host}:{port}"
+        self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._peer: tuple[str, int] | None = None
+        if listen:
+            try:
+                self._sock.bind((host, port))
+            except OSError as exc:
+                self._sock.close()
+                raise LinkError(f"cannot bind UDP {host}:{port}: {exc.strerror}") from exc
+        else:
+            self._peer = (host, port)
+        self.port = self._sock.getsockname()[1] if listen else port
+
+    def read(self, timeout_s: float) -> bytes:
+        ready, _, _ = select.select([self._sock], [], [], max(timeout_s, 0.0))
+        if not ready:
+            return b""
+        try:
+            data, sender = self._sock.recvfrom(65535)
+        except ConnectionRefusedError:
+            return b""  # an ICMP error for an earlier datagram: UDP has no connection to lose
+        if self.name.startswith("udpin"):
+            self._peer = sender
+        return data
+
+    def write(self, data: bytes) -> None:
+        if self._peer is None:
+            return
+        try:
+            self._sock.sendto(data, self._peer)
+        except ConnectionRefusedError:
+            pass
+        except OSError as exc:
+            raise LinkLost(f"{self.name}: {exc.strerror}") from exc
+
+    def close(self) -> None:
+        self._sock.close()

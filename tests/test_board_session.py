@@ -1,0 +1,101 @@
+"""The board session against a scripted PX4-like board over a real pty."""
+
+from __future__ import annotations
+
+import pytest
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.board import BoardError, BoardKind, BoardSession
+from tests.scripted_board import ScriptedBoard
+
+READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
+TRUTH = codec.GroundTruth(0, (1, 0, 0, 0), (0, 0, 0), 47.4, 8.5, 488.0, (0, 0, 0), (0, 0, -9.81))
+
+
+@pytest.fixture
+def board():
+    scripted = ScriptedBoard()
+    yield scripted
+    scripted.stop()
+
+
+def test_handshake_reports_what_the_board_is(board):
+    session = BoardSession(board.start(), BoardKind.EMULATOR)
+    info = session.wait_heartbeat(2.0)
+    assert (info.autopilot, info.vehicle_type, info.hil_enabled, info.armed) == (12, 2, True, False)
+    for _ in range(40):
+        if "HEARTBEAT" in board.received:
+            break
+        session.poll(0.05)
+    assert "HEARTBEAT" in board.received  # we announce ourselves too (PX4 USB needs it)
+
+
+def test_no_heartbeat_gives_the_actionable_message():
+    scripted = ScriptedBoard(send_heartbeat=False)
+    session = BoardSession(scripted.start(), BoardKind.HITL)
+    with pytest.raises(BoardError, match="no heartbeat on .* within 0.3 s — is SYS_HITL=1 set"):
+        session.wait_heartbeat(0.3)
+    scripted.stop()
+
+
+def test_lockstep_free_runs_then_one_sensor_step_per_actuator_message(board):
+    session = BoardSession(board.start(), BoardKind.SITL, watchdog_s=2.0)
+    session.wait_heartbeat(2.0)
+    steps_before_lockstep = 0
+    while not session.lockstep:
+        session.exchange(codec.SensorReadings(steps_before_lockstep * 4000, (0, 0, -9.81), (0, 0, 0)))
+        steps_before_lockstep += 1
+        assert steps_before_lockstep < 2000
+    assert steps_before_lockstep > board.free_run  # free-ran without waiting
+    for k in range(50):
+        out = session.exchange(codec.SensorReadings(10_000_000 + k * 4000, (0, 0, -9.81), (0, 0, 0)))
+        assert out is not None and out.t_us == 10_000_000 + k * 4000  # the reply to this very step
+
+
+def test_arm_is_acknowledged_and_a_refusal_is_an_error(board):
+    session = BoardSession(board.start(), BoardKind.EMULATOR)
+    session.wait_heartbeat(2.0)
+    session.arm(True, timeout_s=2.0)
+    assert board.armed
+    board.accept_arm = False
+    with pytest.raises(BoardError, match=r"arming refused \(MAV_RESULT 4\)"):
+        session.arm(True, timeout_s=2.0)
+
+
+def test_setpoints_and_offboard_reach_the_board(board):
+    session = BoardSession(board.start(), BoardKind.EMULATOR)
+    session.wait_heartbeat(2.0)
+    session.send_setpoint(100, (1.0, 2.0, -3.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.5)
+    session.set_offboard(timeout_s=2.0)
+    assert "SET_POSITION_TARGET_LOCAL_NED" in board.received
+
+
+def test_ground_truth_never_goes_to_a_real_board():
+    scripted = ScriptedBoard()
+    session = BoardSession(scripted.start(), BoardKind.HITL)
+    session.wait_heartbeat(2.0)
+    for k in range(20):
+        session.exchange(READINGS, truth=TRUTH)
+    session.poll(0.2)
+    assert "HIL_SENSOR" in scripted.received
+    assert "HIL_STATE_QUATERNION" not in scripted.received
+    scripted.stop()
+    emulator = ScriptedBoard()
+    session = BoardSession(emulator.start(), BoardKind.EMULATOR)
+    session.wait_heartbeat(2.0)
+    session.exchange(READINGS, truth=TRUTH)
+    session.poll(0.2)
+    assert "HIL_STATE_QUATERNION" in emulator.received
+    emulator.stop()
+
+
+def test_watchdog_reports_a_silent_board():
+    scripted = ScriptedBoard(answer_sensors=False)
+    session = BoardSession(scripted.start(), BoardKind.EMULATOR, watchdog_s=0.3)
+    session.wait_heartbeat(2.0)
+    scripted.send_heartbeat = False
+    with pytest.raises(BoardError, match="board silent for"):
+        for _ in range(200):
+            session.exchange(READINGS)
+            session.poll(0.01)
+    scripted.stop()
