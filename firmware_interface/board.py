@@ -217,9 +217,8 @@ class BoardSession:
                 last_sent = now
             if pump is not None:
                 pump()
-            else:
-                self.service()
-                self.poll(0.02)
+            self.service()
+            self.poll(0.0 if pump is not None else 0.02)
         return self.state.acks[command]
 
     def arm(self, arm: bool = True, **kwargs: Any) -> None:

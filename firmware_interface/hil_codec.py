@@ -216,9 +216,10 @@ def hil_actuator_controls_fields(t_us: int, motors: tuple[float, ...], armed: bo
             "flags": ACTUATOR_FLAG_LOCKSTEP if lockstep else 0}
 
 
-def read_actuator_controls(msg: Any, motor_count: int = 4) -> ActuatorOutputs:
-    """Motor commands clipped to 0..1 (non-reversible motors, as PX4 scales them)."""
-    motors = tuple(min(max(float(c), 0.0), 1.0) if math.isfinite(c) else 0.0 for c in msg.controls[:motor_count])
+def read_actuator_controls(msg: Any, motor_count: int = 4, reversible: bool = False) -> ActuatorOutputs:
+    """Motor commands clipped to PX4's ranges: 0..1 for motors, −1..1 for reversible ones."""
+    low = -1.0 if reversible else 0.0
+    motors = tuple(min(max(float(c), low), 1.0) if math.isfinite(c) else 0.0 for c in msg.controls[:motor_count])
     return ActuatorOutputs(
         t_us=msg.time_usec,
         motors=motors,  # type: ignore[arg-type]

@@ -45,6 +45,12 @@ def _cmd_fmu_hover(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_emulate(args: argparse.Namespace) -> int:
+    from firmware_interface.emulator.__main__ import main as emulate
+
+    return emulate(args.emulator_args)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hil", description="Hardware-in-the-loop bench for PX4 quadrotors")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -61,6 +67,10 @@ def build_parser() -> argparse.ArgumentParser:
     hover.add_argument("--seconds", type=float, default=5.0)
     hover.add_argument("--altitude", type=float, default=2.0, help="hover altitude in m")
     hover.set_defaults(func=_cmd_fmu_hover)
+    emulate = sub.add_parser("emulate", add_help=False,
+                             help="run the software flight controller on a port (see hil emulate --help)")
+    emulate.add_argument("emulator_args", nargs=argparse.REMAINDER)
+    emulate.set_defaults(func=_cmd_emulate)
     return parser
 
 

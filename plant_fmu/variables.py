@@ -47,6 +47,7 @@ PARAMETERS: tuple[Variable, ...] = (
     _p("thrust_max", 5.0, "N", "thrust of one rotor at command 1"),
     _p("thrust_curve_k", 0.5, "1", "T = T_max((1-k)u + k u^2), as PX4's THR_MDL_FAC"),
     _p("motor_tau", 0.02, "s", "rotor thrust first-order lag time constant (0 = ideal)"),
+    _p("rotor_reversible", 0.0, "1", "1: commands -1..1 give thrust -T_max..T_max (ideal actuators)"),
     _p("yaw_moment_coeff", 0.016, "m", "rotor drag torque per newton of thrust"),
     _p("drag_coeff_x", 0.25, "N.s/m", "linear drag along body x against air-relative velocity"),
     _p("drag_coeff_y", 0.25, "N.s/m", "linear drag along body y against air-relative velocity"),

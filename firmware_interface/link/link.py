@@ -38,12 +38,12 @@ class Link:
         self.frames_out = 0
         self._closed = False
 
-    def send(self, name: str, **fields: Any) -> None:
+    def send(self, message: str, /, **fields: Any) -> None:
         """Send one message by name, e.g. `send("HEARTBEAT", type=2, ...)`."""
-        self.send_frame(self.encoder.encode(message_class(name), fields))
+        self.send_frame(self.encoder.encode(message_class(message), fields))
 
-    def send_fields(self, name: str, fields: Mapping[str, Any]) -> None:
-        self.send_frame(self.encoder.encode(message_class(name), fields))
+    def send_fields(self, message: str, fields: Mapping[str, Any]) -> None:
+        self.send_frame(self.encoder.encode(message_class(message), fields))
 
     def send_frame(self, frame: bytes) -> None:
         self.transport.write(frame)

@@ -58,15 +58,16 @@ static void quat_to_dcm(const double *q, double R[3][3]) {
     R[2][0] = 2 * (x * z - w * y);     R[2][1] = 2 * (y * z + w * x);     R[2][2] = 1 - 2 * (x * x + y * y);
 }
 
-static double clamp01(double u) { return u < 0 ? 0 : (u > 1 ? 1 : u); }
+static double clamp(double u, double lo, double hi) { return u < lo ? lo : (u > hi ? hi : u); }
 
-/* Commanded (steady-state) thrust of rotor i, including its health factor. */
+/* Commanded (steady-state) thrust of rotor i, including its health factor. A reversible
+ * rotor takes -1..1 (PX4's range for reversible motors) and pushes both ways. */
 static double thrust_command(const Model *m, int i) {
-    double u = clamp01(m->r[VR_motor_cmd_1 + i]);
+    double u = clamp(m->r[VR_motor_cmd_1 + i], P(m, rotor_reversible) > 0.5 ? -1.0 : 0.0, 1.0);
     double k = P(m, thrust_curve_k);
     double health = m->r[VR_motor_health_1 + i];
     if (health < 0) health = 0;
-    return health * P(m, thrust_max) * ((1 - k) * u + k * u * u);
+    return health * P(m, thrust_max) * ((1 - k) * u + k * u * fabs(u));
 }
 
 /* PX4 quad X: rotor positions (FRD, in units of arm/sqrt2) and spin (+1 CCW). */

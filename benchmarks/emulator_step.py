@@ -1,0 +1,104 @@
+"""µs from HIL_SENSOR in to HIL_ACTUATOR_CONTROLS out, per controller, with the estimator.
+
+1. In-process: the emulated board handles a HIL_SENSOR frame (decode, estimator, controller,
+   mixer, encode of the reply), armed and flying on px4_sitl-like sensor packets.
+2. Round trip over a real pty to the emulator in its own process (what the bench waits for).
+"""
+
+from __future__ import annotations
+
+import socket
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+from pymavlink.dialects.v20 import common
+
+from firmware_interface.board import BoardKind, BoardSession
+from firmware_interface.emulator import EmulatedBoard, build_config
+from firmware_interface.link import Link, open_pty_pair
+from firmware_interface.link.encoder import FrameEncoder, message_class
+from firmware_interface.link.transports import UdpTransport
+from firmware_interface import hil_codec as codec
+from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
+
+G = 9.80665
+CONTROLLERS = ("smarc", "smpid", "backstepping")
+
+
+def sensor_frames(n: int) -> list[tuple[bytes, bytes | None]]:
+    suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
+    encoder = FrameEncoder(1, 51)
+    frames = []
+    for k in range(n):
+        truth = TrueState(4000 * (k + 1), np.zeros(3), np.zeros(3), np.array([1.0, 0, 0, 0]), np.zeros(3),
+                          np.array([0.0, 0.0, -G]))
+        readings, gps = suite.step(truth)
+        gps_frame = encoder.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps)) if gps else None
+        frames.append((encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings)), gps_frame))
+    return frames
+
+
+def in_process(controller: str, frames: list[tuple[bytes, bytes | None]]) -> float:
+    sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sink.bind(("127.0.0.1", 0))  # never read: the replies are dropped when its buffer fills
+    board = EmulatedBoard(Link(UdpTransport("127.0.0.1", sink.getsockname()[1], listen=False)),
+                          build_config({"controller": controller}))
+    decoder = common.MAVLink(None)
+    settle = 750  # 3 s: the estimator settles, then the board is armed and flies on every sample
+    times = []
+    for k, (sensor, gps) in enumerate(frames):
+        if gps:
+            board.handle(decoder.decode(bytearray(gps)))
+        if k == settle:
+            board.setpoint = None
+            assert board._arm() == 0  # noqa: SLF001 - arming as COMMAND_LONG would, without a link round trip
+        start = time.perf_counter()
+        board.handle(decoder.decode(bytearray(sensor)))
+        if k > settle:
+            times.append(time.perf_counter() - start)
+    sink.close()
+    return statistics.median(times) * 1e6
+
+
+def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tuple[float, float]:
+    pair = open_pty_pair()
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
+                             "--controller", controller])
+    session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=2.0)
+    session.wait_heartbeat(10.0)
+    pair.release_slave()
+    times = []
+    for k, (sensor, gps) in enumerate(frames):
+        if gps:
+            session.link.send_frame(gps)
+        if k == 750:
+            session.arm(True, timeout_s=3.0)
+        session._awaited_t_us = 4000 * (k + 1)  # noqa: SLF001 - the frame is pre-encoded, as exchange() would wait
+        start = time.perf_counter()
+        session.link.send_frame(sensor)
+        while session._awaited_t_us is not None:  # noqa: SLF001
+            session.poll(1.0)
+        if k > 750:
+            times.append(time.perf_counter() - start)
+    proc.terminate()
+    proc.wait(5)
+    session.link.close()
+    times.sort()
+    return statistics.median(times) * 1e6, times[int(0.99 * len(times))] * 1e6
+
+
+def main() -> None:
+    frames = sensor_frames(3000)
+    print("emulator: HIL_SENSOR in -> HIL_ACTUATOR_CONTROLS out, estimator on px4_sitl-like packets, armed")
+    for controller in CONTROLLERS:
+        step_us = in_process(controller, frames)
+        p50, p99 = round_trip(controller, frames)
+        print(f"  {controller:12s}  in-process {step_us:6.1f} us (median)   "
+              f"pty round trip p50 {p50:6.1f} us  p99 {p99:6.1f} us")
+
+
+if __name__ == "__main__":
+    main()

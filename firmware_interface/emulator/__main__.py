@@ -1,0 +1,55 @@
+"""Run the emulated board on a port: `python -m firmware_interface.emulator --port /dev/pts/5`."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+
+from firmware_interface.emulator.config import load_config
+from firmware_interface.emulator.control import CONTROLLERS
+from firmware_interface.emulator.firmware import EmulatedBoard
+from firmware_interface.link import LinkError, open_link
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="hil emulate", description=(
+        "A software flight controller that speaks PX4's HIL protocol (HEARTBEAT, HIL_SENSOR/HIL_GPS in, "
+        "HIL_ACTUATOR_CONTROLS out, COMMAND_LONG arm/offboard, SET_POSITION_TARGET_LOCAL_NED) and flies "
+        "the paper's controllers."))
+    parser.add_argument("--port", required=True, help="serial device or pty path, or tcp:/udp: connection string")
+    parser.add_argument("--controller", choices=CONTROLLERS, help="overrides the config file")
+    parser.add_argument("--airframe", choices=("inspection_quad", "paper_airframe"), help="nominal vehicle preset")
+    parser.add_argument("--state-source", choices=("estimator", "truth"), help="truth = fly on HIL_STATE_QUATERNION")
+    parser.add_argument("--config", type=Path, help="YAML file with EmulatorConfig fields")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    overrides = {k: v for k, v in (("controller", args.controller), ("airframe", args.airframe),
+                                   ("state_source", args.state_source)) if v is not None}
+    try:
+        config = load_config(args.config, overrides)
+        link = open_link(args.port)
+    except (LinkError, ValueError, OSError) as exc:
+        print(f"hil emulate: {exc}", file=sys.stderr)
+        return 2
+    stopping = False
+
+    def stop(*_: object) -> None:
+        nonlocal stopping
+        stopping = True
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    board = EmulatedBoard(link, config)
+    reason = board.run(lambda: stopping)
+    link.close()
+    print(f"hil emulate: {reason}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

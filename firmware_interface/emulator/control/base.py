@@ -1,0 +1,107 @@
+"""What every controller sees and returns, and the steps all three share.
+
+Frames: NED earth, FRD body, ZYX Euler angles η = (roll, pitch, yaw). The paper writes its
+laws with z up; here gravity is +g·e3 (down) and the thrust force is −u1·R·e3.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Protocol
+
+import numpy as np
+
+from firmware_interface.emulator.geometry import body_from_euler_torque, euler_rates, wrap_pi
+
+E3 = np.array((0.0, 0.0, 1.0))
+
+
+@dataclass(frozen=True, eq=False)
+class VehicleState:
+    """The estimate the controller flies on (never the plant's truth, unless state_source is truth)."""
+
+    pos_ned: np.ndarray
+    vel_ned: np.ndarray
+    eta: np.ndarray  # roll, pitch, yaw (rad)
+    rates_frd: np.ndarray  # rad/s
+
+    @cached_property
+    def eta_dot(self) -> np.ndarray:
+        return euler_rates(self.eta, self.rates_frd)
+
+
+@dataclass(frozen=True)
+class Setpoint:
+    pos_ned: np.ndarray
+    vel_ned: np.ndarray
+    acc_ned: np.ndarray
+    yaw: float
+
+
+@dataclass(frozen=True)
+class ControlOutput:
+    thrust_n: float  # u1, total
+    torque_frd: np.ndarray  # body torques, N·m
+    eta_cmd: np.ndarray  # commanded roll, pitch, yaw
+    internals: dict[str, float] = field(default_factory=dict)  # estimates and sliding variables to publish
+
+
+class Controller(Protocol):
+    name: str
+    internal_keys: tuple[str, ...]  # the order of `internals` in DEBUG_FLOAT_ARRAY
+
+    def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
+        """`adapt=False` holds adaptation and integrators (on the ground, before lift-off)."""
+        ...
+
+    def reset(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class Nominal:
+    """The nominal vehicle the flight code believes in (from its config, not from the plant)."""
+
+    mass: float
+    inertia: np.ndarray  # Ixx, Iyy, Izz
+    g: float = 9.80665
+
+
+def attitude_from_force(force_ned: np.ndarray, yaw: float, max_tilt: float,
+                        min_lift: float) -> tuple[float, float, float]:
+    """Commanded roll, pitch and vertical force u_z for a desired thrust force (eqs. 26–29).
+
+    The paper's u_s = u1·R·e3 points up; in NED the thrust force is −u1·R·e3, so the paper's
+    equations apply to u = −force. Rotors cannot pull down: u_z is kept above `min_lift` (N),
+    otherwise eqs. 28–29 divide by ~0 and flip the tilt command.
+    """
+    ux, uy, uz = -force_ned
+    uz = max(uz, min_lift)
+    c, s = math.cos(yaw), math.sin(yaw)
+    pitch = math.atan((ux * c + uy * s) / uz)  # eq. 28
+    roll = math.atan(math.cos(pitch) * (ux * s - uy * c) / uz)  # eq. 29
+    pitch = max(-max_tilt, min(max_tilt, pitch))
+    roll = max(-max_tilt, min(max_tilt, roll))
+    return roll, pitch, uz
+
+
+def collective_thrust(uz: float, roll: float, pitch: float) -> float:
+    """u1 = u_z / (cos θ cos γ) with the current attitude (the paper's actual control input)."""
+    return uz / max(math.cos(roll) * math.cos(pitch), 0.5)
+
+
+def angle_error(eta: np.ndarray, eta_cmd: np.ndarray) -> np.ndarray:
+    e = eta - eta_cmd
+    e[2] = wrap_pi(e[2])
+    return e
+
+
+def sat(x: np.ndarray, boundary: float) -> np.ndarray:
+    """The saturation function that replaces sgn inside a boundary layer."""
+    return np.clip(x / boundary, -1.0, 1.0)
+
+
+def body_torque(tau_euler: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """The paper's τ lives in Euler coordinates (J η̈ + C η̇ = τ); the rotors apply τ_body = W⁻ᵀ τ."""
+    return body_from_euler_torque(eta, tau_euler)

@@ -1,0 +1,72 @@
+"""Sliding mode PID (the paper's §5.1 comparison): PID on the fully actuated channels (altitude, yaw),
+sliding mode on the underactuated ones (x, y through roll and pitch).
+
+The paper gives no gains or equations for it; this is our design, stated in the docs:
+    z:      a_z = z̈_c − kp e_z − kd ė_z − ki ∫e_z
+    x, y:   S = ė + λ e,  a_xy = ζ̈_c − λ ė − c S − ε sat(S/φ)
+    roll, pitch: the paper's sliding mode attitude law (eqs. 32–35)
+    yaw:    PID on the yaw error, τ_ψ = Iz_s(−kp e_ψ − kd ė_ψ − ki ∫e_ψ)
+No mass or disturbance estimate: the integral carries a constant load offset.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from firmware_interface.emulator.config import SmpidGains
+from firmware_interface.emulator.control.attitude import SlidingModeAttitude
+from firmware_interface.emulator.control.base import (
+    E3,
+    ControlOutput,
+    Nominal,
+    Setpoint,
+    VehicleState,
+    angle_error,
+    attitude_from_force,
+    collective_thrust,
+    sat,
+)
+
+
+class SlidingModePid:
+    name = "smpid"
+    internal_keys = ("s_x", "s_y", "z_integral", "s2_x", "s2_y", "thrust_n")
+
+    def __init__(self, nominal: Nominal, gains: SmpidGains) -> None:
+        self.nominal = nominal
+        self.gains = gains
+        self.attitude = SlidingModeAttitude(nominal.inertia, gains.c2, gains.lambda2, gains.epsilon_att,
+                                            gains.boundary_layer, gains.differentiator_bandwidth)
+        self.reset()
+
+    def reset(self) -> None:
+        self.z_integral = 0.0
+        self.yaw_integral = 0.0
+        self.s_xy = np.zeros(2)
+        self.attitude.reset()
+
+    def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
+        k, g, m = self.gains, self.nominal.g, self.nominal.mass
+        e = state.pos_ned - setpoint.pos_ned
+        e_dot = state.vel_ned - setpoint.vel_ned
+        if adapt:
+            self.z_integral = float(np.clip(self.z_integral + e[2] * dt, -k.integral_limit, k.integral_limit))
+        a_z = setpoint.acc_ned[2] - k.kp_z * e[2] - k.kd_z * e_dot[2] - k.ki_z * self.z_integral
+        self.s_xy = e_dot[:2] + k.lambda_xy * e[:2]
+        a_xy = (setpoint.acc_ned[:2] - k.lambda_xy * e_dot[:2] - k.c_xy * self.s_xy
+                - k.epsilon_xy * sat(self.s_xy, k.boundary_layer))
+        force = m * (np.array((a_xy[0], a_xy[1], a_z)) - g * E3)
+
+        roll_cmd, pitch_cmd, uz = attitude_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g)
+        eta_cmd = np.array((roll_cmd, pitch_cmd, setpoint.yaw))
+        thrust = collective_thrust(uz, state.eta[0], state.eta[1])
+        torque = self.attitude.update(state, eta_cmd, dt)
+        # yaw is fully actuated: replace the sliding mode yaw torque by a PID on the yaw error
+        e_yaw = angle_error(state.eta, eta_cmd)[2]
+        if adapt:
+            self.yaw_integral = float(np.clip(self.yaw_integral + e_yaw * dt, -1.0, 1.0))
+        iz = self.nominal.inertia[2]
+        torque[2] = iz * (-k.kp_yaw * e_yaw - k.kd_yaw * state.rates_frd[2] - k.ki_yaw * self.yaw_integral)
+        internals = {"s_x": self.s_xy[0], "s_y": self.s_xy[1], "z_integral": self.z_integral,
+                     "s2_x": self.attitude.s2[0], "s2_y": self.attitude.s2[1], "thrust_n": thrust}
+        return ControlOutput(thrust, torque, eta_cmd, internals)

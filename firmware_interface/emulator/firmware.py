@@ -1,0 +1,227 @@
+"""The emulated flight controller: PX4's HIL protocol on one side, the paper's controllers inside.
+
+Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, quadrotor, HIL_ENABLED), takes
+HIL_SENSOR / HIL_GPS (and HIL_STATE_QUATERNION as truth when configured), answers COMMAND_LONG
+with COMMAND_ACK, follows SET_POSITION_TARGET_LOCAL_NED in offboard mode, and answers each
+HIL_SENSOR with exactly one HIL_ACTUATOR_CONTROLS (lockstep flag set, time_usec echoed, as PX4
+SITL does). It knows only MAVLink bytes and its own configuration, never the plant.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.emulator.config import EmulatorConfig
+from firmware_interface.emulator.control import ControlOutput, Setpoint, VehicleState, make_controller
+from firmware_interface.emulator.estimator import Estimator
+from firmware_interface.emulator.geometry import euler_to_quat, quat_to_euler
+from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.link import Link, LinkLost, Message
+
+MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4 = 2, 12
+MAV_STATE_STANDBY, MAV_STATE_ACTIVE, MAV_STATE_BOOT = 3, 4, 1
+MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED = 0, 2, 3
+MAV_CMD_DO_SET_MODE, MAV_CMD_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL = 176, 400, 511
+PX4_MAIN_MODE_POSCTL, PX4_MAIN_MODE_OFFBOARD = 3, 6
+SEVERITY_CRITICAL, SEVERITY_INFO = 2, 6
+TELEMETRY_PERIOD_US = 20_000  # ATTITUDE, LOCAL_POSITION_NED, ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY at 50 Hz
+LANDED_CLEARANCE_M = 0.3  # adaptation and integrators wait until the vehicle has left the ground
+
+
+class EmulatedBoard:
+    def __init__(self, link: Link, config: EmulatorConfig, clock: Callable[[], float] = time.monotonic) -> None:
+        self.link = link
+        self.config = config
+        self.clock = clock
+        self.link.encoder.system_id = config.system_id
+        self.link.encoder.component_id = 1
+        self.controller = make_controller(config)
+        self.mixer = Mixer(config.vehicle)
+        self.estimator = Estimator(config.estimator, config.vehicle.g)
+        self.truth: codec.GroundTruth | None = None
+        self.armed = False
+        self.offboard = False
+        self.setpoint: Setpoint | None = None
+        self.hold: Setpoint | None = None
+        self.takeoff_d: float | None = None
+        self.airborne = False
+        self.last_sensor_t_us: int | None = None
+        self.last_sensor_wall = clock()
+        self.last_telemetry_us = -TELEMETRY_PERIOD_US
+        self.last_heartbeat = -1e9
+        self.boot_us: int | None = None
+        self.last_output: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        self.last_control: ControlOutput | None = None
+        self.stop_reason = ""
+
+    # --- main loop ----------------------------------------------------------------
+    def run(self, should_stop: Callable[[], bool] = lambda: False) -> str:
+        """Serve the link until it is lost or `should_stop()`; returns why it stopped."""
+        try:
+            while not should_stop():
+                self._housekeeping()
+                for msg in self.link.receive(0.05):
+                    self.handle(msg)
+        except LinkLost as exc:
+            self.stop_reason = f"link lost: {exc.reason}"
+            return self.stop_reason
+        self.stop_reason = "stopped"
+        return self.stop_reason
+
+    def _housekeeping(self) -> None:
+        now = self.clock()
+        if now - self.last_heartbeat >= 1.0:
+            self._heartbeat()
+            self.last_heartbeat = now
+        if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:
+            self._disarm()
+            self._status(SEVERITY_CRITICAL, f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
+
+    def handle(self, msg: Message) -> None:
+        kind = msg.get_type()
+        if kind == "HIL_SENSOR":
+            self._on_sensor(msg)
+        elif kind == "HIL_GPS":
+            if self.last_sensor_t_us is not None:
+                self.estimator.on_gps(codec.read_hil_gps(msg), self.last_sensor_t_us)
+        elif kind == "HIL_STATE_QUATERNION":
+            self.truth = codec.read_hil_state_quaternion(msg)
+        elif kind == "COMMAND_LONG":
+            self._on_command(msg)
+        elif kind == "SET_POSITION_TARGET_LOCAL_NED":
+            self.setpoint = Setpoint(np.array((msg.x, msg.y, msg.z)), np.array((msg.vx, msg.vy, msg.vz)),
+                                     np.array((msg.afx, msg.afy, msg.afz)), msg.yaw)
+
+    # --- the control step ---------------------------------------------------------
+    def _on_sensor(self, msg: Message) -> None:
+        readings = codec.read_hil_sensor(msg)
+        self.last_sensor_wall = self.clock()
+        dt = 0.0 if self.last_sensor_t_us is None else (readings.t_us - self.last_sensor_t_us) * 1e-6
+        self.last_sensor_t_us = readings.t_us
+        if self.boot_us is None:
+            self.boot_us = readings.t_us
+        self.estimator.on_sensors(readings)
+        motors = (0.0, 0.0, 0.0, 0.0)
+        state = self._state()
+        if self.armed and state is not None and 0.0 < dt < 0.1:
+            motors = self._control(state, dt)
+        self.last_output = motors
+        self.link.send_fields("HIL_ACTUATOR_CONTROLS", codec.hil_actuator_controls_fields(
+            readings.t_us, motors, self.armed, lockstep=self.config.lockstep))
+        if readings.t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
+            self.last_telemetry_us = readings.t_us
+            self._telemetry(readings.t_us, state)
+
+    def _state(self) -> VehicleState | None:
+        if self.config.state_source == "truth":
+            t = self.truth
+            if t is None:
+                return None
+            q = np.array(t.q_wxyz)
+            pos = self._truth_position(t)
+            return VehicleState(pos, np.array(t.vel_ned), quat_to_euler(q), np.array(t.rates_frd))
+        if not self.estimator.aligned:
+            return None
+        e = self.estimator.estimate()
+        return VehicleState(e.pos_ned, e.vel_ned, e.eta, e.rates_frd)
+
+    def _truth_position(self, t: codec.GroundTruth) -> np.ndarray:
+        if self.estimator.origin is None:  # the first truth sample defines the origin, as a first fix would
+            self.estimator.origin = (t.lat_deg, t.lon_deg, t.alt_msl_m)
+        lat0, lon0, alt0 = self.estimator.origin
+        north = math.radians(t.lat_deg - lat0) * 6_378_137.0
+        east = math.radians(t.lon_deg - lon0) * 6_378_137.0 * math.cos(math.radians(lat0))
+        return np.array((north, east, alt0 - t.alt_msl_m))
+
+    def _control(self, state: VehicleState, dt: float) -> tuple[float, ...]:
+        if self.takeoff_d is None:
+            self.takeoff_d = float(state.pos_ned[2])
+        self.airborne = self.airborne or state.pos_ned[2] < self.takeoff_d - LANDED_CLEARANCE_M
+        if self.offboard and self.setpoint is not None:
+            setpoint = self.setpoint
+        else:
+            if self.hold is None:
+                self.hold = Setpoint(state.pos_ned.copy(), np.zeros(3), np.zeros(3), float(state.eta[2]))
+            setpoint = self.hold
+        out = self.controller.update(state, setpoint, dt, adapt=self.airborne)
+        self.last_control = out
+        return tuple(float(u) for u in self.mixer.commands(out.thrust_n, out.torque_frd))
+
+    # --- commands -----------------------------------------------------------------
+    def _on_command(self, msg: Message) -> None:
+        if msg.target_system not in (0, self.config.system_id):
+            return
+        result = MAV_RESULT_UNSUPPORTED
+        if msg.command == MAV_CMD_ARM_DISARM:
+            if msg.param1 == 1.0:
+                result = self._arm()
+            else:
+                self._disarm()
+                result = MAV_RESULT_ACCEPTED
+        elif msg.command == MAV_CMD_DO_SET_MODE:
+            wants_offboard = int(msg.param2) == PX4_MAIN_MODE_OFFBOARD
+            if wants_offboard and self.setpoint is None:
+                self._status(SEVERITY_CRITICAL, "Offboard refused: no setpoint stream")
+                result = MAV_RESULT_DENIED
+            else:
+                self.offboard = wants_offboard
+                result = MAV_RESULT_ACCEPTED
+        elif msg.command == MAV_CMD_SET_MESSAGE_INTERVAL:
+            result = MAV_RESULT_ACCEPTED
+        self.link.send("COMMAND_ACK", command=msg.command, result=result, progress=0, result_param2=0,
+                       target_system=msg.get_srcSystem(), target_component=msg.get_srcComponent())
+
+    def _arm(self) -> int:
+        ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
+        if not ready:
+            self._status(SEVERITY_CRITICAL, "Arming denied: estimator not settled")
+            return MAV_RESULT_DENIED
+        if not self.armed:
+            self.armed = True
+            self.controller.reset()
+            self.takeoff_d = None
+            self.airborne = False
+            self.hold = None
+            self._status(SEVERITY_INFO, f"Armed ({self.controller.name})")
+        return MAV_RESULT_ACCEPTED
+
+    def _disarm(self) -> None:
+        self.armed = False
+        self.offboard = False
+
+    # --- messages out -------------------------------------------------------------
+    def _heartbeat(self) -> None:
+        base_mode = codec.MODE_FLAG_CUSTOM | codec.MODE_FLAG_HIL | (codec.MODE_FLAG_ARMED if self.armed else 0)
+        main_mode = PX4_MAIN_MODE_OFFBOARD if self.offboard else PX4_MAIN_MODE_POSCTL
+        ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
+        status = MAV_STATE_ACTIVE if self.armed else (MAV_STATE_STANDBY if ready else MAV_STATE_BOOT)
+        self.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
+                       custom_mode=main_mode << 16, system_status=status, mavlink_version=3)
+
+    def _status(self, severity: int, text: str) -> None:
+        self.link.send("STATUSTEXT", severity=severity, text=text[:50].ljust(50, "\0"), id=0, chunk_seq=0)
+
+    def _telemetry(self, t_us: int, state: VehicleState) -> None:
+        boot_ms = (t_us - (self.boot_us or t_us)) // 1000
+        roll, pitch, yaw = (float(a) for a in state.eta)
+        p, q, r = (float(w) for w in state.rates_frd)
+        self.link.send("ATTITUDE", time_boot_ms=boot_ms, roll=roll, pitch=pitch, yaw=yaw, rollspeed=p,
+                       pitchspeed=q, yawspeed=r)
+        pos, vel = state.pos_ned, state.vel_ned
+        self.link.send("LOCAL_POSITION_NED", time_boot_ms=boot_ms, x=float(pos[0]), y=float(pos[1]), z=float(pos[2]),
+                       vx=float(vel[0]), vy=float(vel[1]), vz=float(vel[2]))
+        out = self.last_control
+        if out is None or not self.armed:
+            return
+        q_cmd = euler_to_quat(*(float(a) for a in out.eta_cmd))
+        thrust = min(max(out.thrust_n / (4 * self.config.vehicle.thrust_max), 0.0), 1.0)
+        self.link.send("ATTITUDE_TARGET", time_boot_ms=boot_ms, type_mask=0, q=[float(c) for c in q_cmd],
+                       body_roll_rate=0.0, body_pitch_rate=0.0, body_yaw_rate=0.0, thrust=thrust)
+        values = [float(out.internals[k]) for k in self.controller.internal_keys]
+        self.link.send("DEBUG_FLOAT_ARRAY", time_usec=t_us, name=self.controller.name[:10].ljust(10, "\0"),
+                       array_id=1, data=values + [0.0] * (58 - len(values)))

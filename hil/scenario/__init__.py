@@ -1,0 +1,1 @@
+"""Scenarios: the schema and loader, and the time-varying inputs of a run."""

@@ -1,0 +1,70 @@
+"""Emulator parts against hand-worked facts: mixer allocation, differentiator, estimator alignment."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firmware_interface.emulator.config import EstimatorSettings, NominalVehicle
+from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
+from firmware_interface.emulator.estimator import Estimator
+from firmware_interface.emulator.geometry import euler_to_quat, quat_to_dcm
+from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.hil_codec import GpsFix, SensorReadings
+
+VEHICLE = NominalVehicle()  # 1 kg, arm 0.25 m, 5 N rotors, k = 0.5, k_m = 0.016
+
+
+def test_hover_thrust_gives_equal_commands_on_the_thrust_curve():
+    u = Mixer(VEHICLE).commands(9.80665, np.zeros(3))
+    # by hand: 2.4517 N per rotor = 5 (0.5 u + 0.5 u^2)  ->  u = 0.6094
+    assert u == pytest.approx([0.6094] * 4, abs=1e-4)
+
+
+@pytest.mark.parametrize(("torque", "more"), [((0.1, 0, 0), (1, 2)), ((0, 0.1, 0), (0, 2)), ((0, 0, 0.01), (0, 1))])
+def test_torques_go_to_the_right_rotors(torque, more):
+    """+roll: left rotors (2 RL, 3 FL) push more; +pitch: front (1, 3); +yaw: CCW rotors (1, 2)."""
+    thrusts = Mixer(VEHICLE).rotor_thrusts(9.80665, np.array(torque))
+    high = set(np.flatnonzero(thrusts > 9.80665 / 4 + 1e-9))
+    assert high == set(more)
+    assert thrusts.sum() == pytest.approx(9.80665)
+
+
+def test_saturation_drops_yaw_first_and_never_raises_collective():
+    mixer = Mixer(VEHICLE)
+    low = mixer.rotor_thrusts(2.0, np.array((0.5, 0.0, 0.05)))  # big roll demand at low thrust
+    assert low.min() >= 0.0 and low.sum() <= 2.0 + 1e-9
+    high = mixer.rotor_thrusts(19.5, np.array((0.2, 0.0, 0.1)))  # near full thrust
+    arm = 0.25 / math.sqrt(2)
+    roll = -arm * (high[0] - high[1] - high[2] + high[3])
+    assert roll == pytest.approx(0.2, rel=1e-6)  # roll kept whole; collective and yaw gave way
+    assert high.max() <= 5.0 + 1e-9
+
+
+def test_differentiator_recovers_first_and_second_derivatives_of_a_sine():
+    d = ThirdOrderDifferentiator(100.0, size=1)
+    dt, w = 0.001, 2.0
+    for k in range(5000):
+        t = k * dt
+        _, d1, d2 = d.update(np.array([math.sin(w * t)]), dt)
+    # a triple pole at 100 rad/s lags a 2 rad/s sine by 3 w/100 rad
+    lag = 3 * w / 100
+    assert d1[0] == pytest.approx(w * math.cos(w * t - lag), abs=0.02)
+    assert d2[0] == pytest.approx(-w * w * math.sin(w * t - lag), abs=0.05 * w * w)  # 5 % of the amplitude
+
+
+def test_estimator_aligns_attitude_and_heading_from_accel_and_mag_at_rest():
+    roll, pitch, yaw = 0.05, -0.08, 1.2
+    q = euler_to_quat(roll, pitch, yaw)
+    field_ned = np.array((21.5e-6, 1.3e-6, 43.3e-6))
+    rot = quat_to_dcm(q)
+    est = Estimator(EstimatorSettings())
+    est.on_gps(GpsFix(0, 47.397742, 8.545594, 488.0, (0, 0, 0), 0.5, 0.5), 0)
+    est.field_ned = field_ned  # the test's field, so the check does not depend on the WMM
+    f = tuple(rot.T @ np.array((0.0, 0.0, -9.80665)))
+    m = tuple(rot.T @ field_ned)
+    for k in range(10):
+        est.on_sensors(SensorReadings(k * 4000, f, (0.0, 0.0, 0.0), m))
+    assert est.estimate().eta == pytest.approx((roll, pitch, yaw), abs=1e-3)
