@@ -23,6 +23,8 @@ MAV_FRAME_LOCAL_NED = 1
 PX4_CUSTOM_MAIN_MODE_OFFBOARD = 6
 SETPOINT_IGNORE_YAW_RATE = 2048  # SET_POSITION_TARGET_LOCAL_NED.type_mask: use pos, vel, acc, yaw
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
+INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
+                         "LOCAL_POSITION_NED", "ATTITUDE"})
 
 
 class BoardKind(Enum):
@@ -64,14 +66,16 @@ class BoardSession:
 
     def __init__(self, link: Link, kind: BoardKind, heartbeat_period_s: float = 1.0,
                  watchdog_s: float = 1.0, free_run_wait_s: float = 0.01,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, reversible_motors: bool = False) -> None:
         self.link = link
         self.kind = kind
         self.heartbeat_period_s = heartbeat_period_s
         self.watchdog_s = watchdog_s
         self.free_run_wait_s = free_run_wait_s
+        self.reversible_motors = reversible_motors  # PX4 outputs reversible motors as -1..1
         self.clock = clock
         self.state = BoardState()
+        self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
@@ -108,7 +112,7 @@ class BoardSession:
         if info is not None and msg.get_srcSystem() != info.system_id and kind != "HEARTBEAT":
             return
         if kind == "HIL_ACTUATOR_CONTROLS":
-            self.actuators = codec.read_actuator_controls(msg)
+            self.actuators = codec.read_actuator_controls(msg, reversible=self.reversible_motors)
             if self.kind is not BoardKind.HITL:
                 self.lockstep = self.lockstep or self.actuators.lockstep
             if self._awaited_t_us is not None and self.actuators.t_us >= self._awaited_t_us:
@@ -119,6 +123,8 @@ class BoardSession:
             self.state.acks[msg.command] = msg.result
         elif kind == "STATUSTEXT":
             self.state.status_texts.append((msg.severity, msg.text))
+        if kind in INBOX_KINDS:
+            self.inbox.append(msg)
         self.state.latest[kind] = msg
 
     def _handle_heartbeat(self, msg: Message) -> None:
@@ -162,7 +168,19 @@ class BoardSession:
 
     def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                  truth: codec.GroundTruth | None = None) -> codec.ActuatorOutputs | None:
-        """One bench step: send sensors, then in lockstep wait for the reply to this step.
+        """One bench step: `send_step`, then `await_reply`."""
+        self.send_step(readings, gps, truth)
+        return self.await_reply()
+
+    def send_step(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
+                  truth: codec.GroundTruth | None = None) -> None:
+        """Send this step's sensors; the reply to wait for is the one echoing `readings.t_us`."""
+        self.service()
+        self.send_sensors(readings, gps, truth)
+        self._awaited_t_us = readings.t_us
+
+    def await_reply(self) -> codec.ActuatorOutputs | None:
+        """The actuator outputs for the step just sent.
 
         PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's time_usec in
         HIL_ACTUATOR_CONTROLS, so stale replies to earlier steps are skipped. Before lockstep
@@ -170,22 +188,19 @@ class BoardSession:
         backlog of replies builds up. A real board (HITL) is never waited for: it runs on its
         own clock. Raises BoardError when the watchdog expires.
         """
-        self.service()
-        self.send_sensors(readings, gps, truth)
         if self.kind is BoardKind.HITL:
+            self._awaited_t_us = None
             self.poll(0.0)
             self.check_watchdog()
             return self.actuators
-        self._awaited_t_us = readings.t_us
         wait_s = self.watchdog_s if self.lockstep else self.free_run_wait_s
         deadline = self.clock() + wait_s
         while self._awaited_t_us is not None:
             remaining = deadline - self.clock()
             if remaining <= 0:
-                if self.lockstep:
-                    self.check_watchdog()
-                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog_s:.2f} s in lockstep")
                 self.check_watchdog()
+                if self.lockstep:
+                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog_s:.2f} s in lockstep")
                 break
             self.poll(remaining)
         self._awaited_t_us = None
@@ -200,26 +215,33 @@ class BoardSession:
                 pump: Callable[[], Any] | None = None) -> int:
         """COMMAND_LONG, waiting for its COMMAND_ACK; returns MAV_RESULT. `pump` keeps a
         lockstep simulation stepping while we wait (PX4 SITL's clock only moves with sensors)."""
-        system, component = self._target()
-        padded = tuple(params) + (0.0,) * (7 - len(params))
-        self.state.acks.pop(command, None)
         deadline = self.clock() + timeout_s
         last_sent = -1e9
+        self.state.acks.pop(command, None)
         while command not in self.state.acks:
             now = self.clock()
             if now > deadline:
                 raise BoardError(f"no COMMAND_ACK for command {command} within {timeout_s:g} s")
             if now - last_sent > 0.5:
-                self.link.send("COMMAND_LONG", target_system=system, target_component=component,
-                               command=command, confirmation=0, param1=padded[0], param2=padded[1],
-                               param3=padded[2], param4=padded[3], param5=padded[4], param6=padded[5],
-                               param7=padded[6])
+                self.request(command, params)
                 last_sent = now
             if pump is not None:
                 pump()
             self.service()
             self.poll(0.0 if pump is not None else 0.02)
         return self.state.acks[command]
+
+    def request(self, command: int, params: tuple[float, ...] = ()) -> None:
+        """Send a COMMAND_LONG without waiting; `acknowledged(command)` tells the result when it comes."""
+        system, component = self._target()
+        p = tuple(params) + (0.0,) * (7 - len(params))
+        self.state.acks.pop(command, None)
+        self.link.send("COMMAND_LONG", target_system=system, target_component=component, command=command,
+                       confirmation=0, param1=p[0], param2=p[1], param3=p[2], param4=p[3], param5=p[4],
+                       param6=p[5], param7=p[6])
+
+    def acknowledged(self, command: int) -> int | None:
+        return self.state.acks.get(command)
 
     def arm(self, arm: bool = True, **kwargs: Any) -> None:
         result = self.command(MAV_CMD_COMPONENT_ARM_DISARM, (1.0 if arm else 0.0,), **kwargs)

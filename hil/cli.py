@@ -45,6 +45,58 @@ def _cmd_fmu_hover(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _load(paths: list[str]) -> tuple[list, int]:
+    from hil.scenario.loader import ScenarioError, load_scenario
+
+    scenarios, bad = [], 0
+    for path in paths:
+        try:
+            scenarios.append(load_scenario(Path(path)))
+        except ScenarioError as exc:
+            for problem in exc.problems:
+                print(problem, file=sys.stderr)
+            bad += 1
+    return scenarios, bad
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    scenarios, bad = _load(args.files)
+    for scenario, path in zip(scenarios, args.files):
+        print(f"{path}: ok ({scenario.name}: {scenario.reference.type}, {scenario.duration_s:g} s)")
+    return EXIT_BAD_INPUT if bad else EXIT_OK
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from hil.progress import progress_printer
+    from hil.runner import RunOptions, run_scenario
+
+    scenarios, bad = _load([args.scenario])
+    if bad:
+        return EXIT_BAD_INPUT
+    scenario = scenarios[0]
+    if args.seed is not None:
+        scenario = scenario.model_copy(update={"seed": args.seed})
+    if args.controller:
+        scenario = scenario.model_copy(update={"board": scenario.board.model_copy(update={"controller": args.controller})})
+    options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, runs_root=Path(args.runs))
+    with progress_printer(scenario.name) as progress:
+        outcome = run_scenario(scenario, options, progress=progress)
+    print(outcome.summary, end="")
+    print(f"run directory: {outcome.run_dir}")
+    return outcome.exit_code
+
+
+def _cmd_ports(args: argparse.Namespace) -> int:
+    from serial.tools import list_ports
+
+    ports = sorted(list_ports.comports(), key=lambda p: p.device)
+    if not ports:
+        print("no serial ports found (a Pixhawk on USB appears as /dev/ttyACM*)")
+    for port in ports:
+        print(f"{port.device}\t{port.description}\t{port.hwid}")
+    return EXIT_OK
+
+
 def _cmd_emulate(args: argparse.Namespace) -> int:
     from firmware_interface.emulator.__main__ import main as emulate
 
@@ -67,6 +119,26 @@ def build_parser() -> argparse.ArgumentParser:
     hover.add_argument("--seconds", type=float, default=5.0)
     hover.add_argument("--altitude", type=float, default=2.0, help="hover altitude in m")
     hover.set_defaults(func=_cmd_fmu_hover)
+    run = sub.add_parser("run", help="fly a scenario through the HIL chain", description=(
+        "Fly SCENARIO: the plant FMU and sensor models on this machine, the flight code on a board. Without "
+        "--port the built-in emulator runs on a pty in lockstep. With a Pixhawk (SYS_HITL=1, airframe 1001 "
+        "HIL Quadcopter X) use --port /dev/ttyACM0 (wall-clock real time, 250 Hz). With PX4 SITL use "
+        "--port tcpin:0.0.0.0:4560 (PX4 connects as the client; lockstep) and --mavlink udpout:127.0.0.1:14580 "
+        "for arming/offboard on PX4's offboard MAVLink port. Exit codes: 0 pass, 1 expectations not met, "
+        "2 bad input, 3 board/link failure, 130 interrupted."))
+    run.add_argument("scenario", help="scenario YAML file")
+    run.add_argument("--port", help="board connection: /dev/ttyACM0, serial:PATH:BAUD, tcpin:HOST:PORT, tcp:, udpin:, udpout:")
+    run.add_argument("--mavlink", help="separate command link (PX4 SITL: udpout:127.0.0.1:14580)")
+    run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
+    run.add_argument("--controller", choices=("smarc", "smpid", "backstepping"), help="override the emulator's controller")
+    run.add_argument("--seed", type=int, help="override the scenario's seed")
+    run.add_argument("--runs", default="runs", help="where run directories go (default runs/)")
+    run.set_defaults(func=_cmd_run)
+    check = sub.add_parser("check", help="validate scenario files without running them")
+    check.add_argument("files", nargs="+")
+    check.set_defaults(func=_cmd_check)
+    ports = sub.add_parser("ports", help="list serial ports (where a Pixhawk shows up)")
+    ports.set_defaults(func=_cmd_ports)
     emulate = sub.add_parser("emulate", add_help=False,
                              help="run the software flight controller on a port (see hil emulate --help)")
     emulate.add_argument("emulator_args", nargs=argparse.REMAINDER)

@@ -21,10 +21,10 @@ from pygeomag import GeoMag
 
 from firmware_interface.emulator.config import EstimatorSettings
 from firmware_interface.emulator.geometry import euler_to_quat, quat_multiply, quat_to_dcm, quat_to_euler, wrap_pi
+from firmware_interface.geodesy import LocalFrame
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 
 E3 = np.array((0.0, 0.0, 1.0))
-EARTH_RADIUS_M = 6_378_137.0
 HISTORY_S = 1.0
 GPS_ACCEL_FILTER_S = 1.0
 
@@ -49,7 +49,7 @@ class Estimator:
         self._last_gps: tuple[int, np.ndarray] | None = None
         self.rates = np.zeros(3)
         self.field_ned: np.ndarray | None = None
-        self.origin: tuple[float, float, float] | None = None  # lat, lon, alt of the first fix
+        self.origin: LocalFrame | None = None  # about the first fix, as PX4 sets its local origin
         self.baro_offset: float | None = None
         self.aligned = False
         self.t_us: int | None = None
@@ -100,7 +100,7 @@ class Estimator:
         if fix.fix_type < 3:
             return
         if self.origin is None:
-            self.origin = (fix.lat_deg, fix.lon_deg, fix.alt_msl_m)
+            self.origin = LocalFrame(fix.lat_deg, fix.lon_deg, fix.alt_msl_m)
             result = GeoMag().calculate(glat=fix.lat_deg, glon=fix.lon_deg, alt=fix.alt_msl_m / 1000,
                                         time=self.settings.mag_epoch_year, allow_date_outside_lifespan=True)
             self.field_ned = np.array((result.x, result.y, result.z)) * 1e-9
@@ -108,7 +108,7 @@ class Estimator:
         if not self.aligned:
             return
         self.gps_count += 1
-        z_pos = self._local(fix)
+        z_pos = np.array(self.origin.to_ned(fix.lat_deg, fix.lon_deg, fix.alt_msl_m))
         z_vel = np.array(fix.vel_ned)
         if self._last_gps is not None and fix.t_us > self._last_gps[0]:
             gap = (fix.t_us - self._last_gps[0]) * 1e-6
@@ -131,12 +131,6 @@ class Estimator:
         self._pending_vel += k_vel_from_pos * dp + k_vel * dv
 
     # --- internals ----------------------------------------------------------------
-    def _local(self, fix: GpsFix) -> np.ndarray:
-        lat0, lon0, alt0 = self.origin  # type: ignore[misc]
-        north = math.radians(fix.lat_deg - lat0) * EARTH_RADIUS_M
-        east = math.radians(fix.lon_deg - lon0) * EARTH_RADIUS_M * math.cos(math.radians(lat0))
-        return np.array((north, east, alt0 - fix.alt_msl_m))
-
     def _state_at(self, t_us: int) -> tuple[np.ndarray, np.ndarray] | None:
         if not self._history:
             return None

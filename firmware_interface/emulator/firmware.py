@@ -9,7 +9,6 @@ SITL does). It knows only MAVLink bytes and its own configuration, never the pla
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 
@@ -21,6 +20,7 @@ from firmware_interface.emulator.control import ControlOutput, Setpoint, Vehicle
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.geometry import euler_to_quat, quat_to_euler
 from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Link, LinkLost, Message
 
 MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4 = 2, 12
@@ -29,6 +29,7 @@ MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED = 0, 2, 3
 MAV_CMD_DO_SET_MODE, MAV_CMD_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL = 176, 400, 511
 PX4_MAIN_MODE_POSCTL, PX4_MAIN_MODE_OFFBOARD = 3, 6
 SEVERITY_CRITICAL, SEVERITY_INFO = 2, 6
+HEARTBEAT_PERIOD_US = 1_000_000
 TELEMETRY_PERIOD_US = 20_000  # ATTITUDE, LOCAL_POSITION_NED, ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY at 50 Hz
 LANDED_CLEARANCE_M = 0.3  # adaptation and integrators wait until the vehicle has left the ground
 
@@ -54,6 +55,7 @@ class EmulatedBoard:
         self.last_sensor_wall = clock()
         self.last_telemetry_us = -TELEMETRY_PERIOD_US
         self.last_heartbeat = -1e9
+        self.last_heartbeat_us = -HEARTBEAT_PERIOD_US
         self.boot_us: int | None = None
         self.last_output: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.last_control: ControlOutput | None = None
@@ -75,7 +77,7 @@ class EmulatedBoard:
 
     def _housekeeping(self) -> None:
         now = self.clock()
-        if now - self.last_heartbeat >= 1.0:
+        if self.last_sensor_t_us is None and now - self.last_heartbeat >= 1.0:  # no simulation clock yet
             self._heartbeat()
             self.last_heartbeat = now
         if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:
@@ -111,11 +113,16 @@ class EmulatedBoard:
         if self.armed and state is not None and 0.0 < dt < 0.1:
             motors = self._control(state, dt)
         self.last_output = motors
-        self.link.send_fields("HIL_ACTUATOR_CONTROLS", codec.hil_actuator_controls_fields(
-            readings.t_us, motors, self.armed, lockstep=self.config.lockstep))
+        # Telemetry and heartbeat go out before the reply and on the simulation clock, like PX4 SITL's
+        # streams: in lockstep the bench then sees each step's messages with that step's reply.
+        if readings.t_us - self.last_heartbeat_us >= HEARTBEAT_PERIOD_US:
+            self.last_heartbeat_us = readings.t_us
+            self._heartbeat()
         if readings.t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
             self.last_telemetry_us = readings.t_us
             self._telemetry(readings.t_us, state)
+        self.link.send_fields("HIL_ACTUATOR_CONTROLS", codec.hil_actuator_controls_fields(
+            readings.t_us, motors, self.armed, lockstep=self.config.lockstep))
 
     def _state(self) -> VehicleState | None:
         if self.config.state_source == "truth":
@@ -132,11 +139,8 @@ class EmulatedBoard:
 
     def _truth_position(self, t: codec.GroundTruth) -> np.ndarray:
         if self.estimator.origin is None:  # the first truth sample defines the origin, as a first fix would
-            self.estimator.origin = (t.lat_deg, t.lon_deg, t.alt_msl_m)
-        lat0, lon0, alt0 = self.estimator.origin
-        north = math.radians(t.lat_deg - lat0) * 6_378_137.0
-        east = math.radians(t.lon_deg - lon0) * 6_378_137.0 * math.cos(math.radians(lat0))
-        return np.array((north, east, alt0 - t.alt_msl_m))
+            self.estimator.origin = LocalFrame(t.lat_deg, t.lon_deg, t.alt_msl_m)
+        return np.array(self.estimator.origin.to_ned(t.lat_deg, t.lon_deg, t.alt_msl_m))
 
     def _control(self, state: VehicleState, dt: float) -> tuple[float, ...]:
         if self.takeoff_d is None:

@@ -32,24 +32,23 @@ class Mixer:
 
     def rotor_thrusts(self, thrust_n: float, torque_frd: np.ndarray) -> np.ndarray:
         inv, t_max = self._inverse, self.t_max
-        if self.reversible:  # ideal actuators: every rotor pushes both ways, nothing to prioritise
-            return np.clip(inv @ np.array((thrust_n, *torque_frd)), -t_max, t_max)
+        low = -t_max if self.reversible else 0.0  # reversible (ideal) rotors push both ways
         rp = inv[:, 1] * torque_frd[0] + inv[:, 2] * torque_frd[1]
-        collective = min(max(thrust_n / 4.0, 0.0), t_max)
-        room_low = collective / -float(rp.min()) if rp.min() < -1e-12 else np.inf
+        collective = min(max(thrust_n / 4.0, low), t_max)
+        room_low = (collective - low) / -float(rp.min()) if rp.min() < -1e-12 else np.inf
         spread = float(rp.max() - rp.min())
-        scale = min(1.0, room_low, t_max / spread if spread > 0 else np.inf)
-        rp *= scale  # what does not fit above zero thrust is cut, not bought with extra collective
+        scale = min(1.0, room_low, (t_max - low) / spread if spread > 0 else np.inf)
+        rp *= scale  # what does not fit above the lowest thrust is cut, not bought with extra collective
         collective = min(collective, t_max - float(rp.max()))  # near full thrust: lower collective
         base = collective + rp
         yaw = inv[:, 3] * torque_frd[2]
-        scale = 1.0
+        share = 1.0
         for b, y in zip(base, yaw):  # the largest share of the yaw torque that still fits
             if y > 0:
-                scale = min(scale, (t_max - b) / y)
+                share = min(share, (t_max - b) / y)
             elif y < 0:
-                scale = min(scale, -b / y)
-        return np.clip(base + max(scale, 0.0) * yaw, 0.0, t_max)
+                share = min(share, (low - b) / y)
+        return np.clip(base + max(share, 0.0) * yaw, low, t_max)
 
     def commands(self, thrust_n: float, torque_frd: np.ndarray) -> np.ndarray:
         """Rotor commands 0..1 through the inverse thrust curve."""

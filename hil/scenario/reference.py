@@ -70,3 +70,77 @@ class Helix:
         dpos = np.array((-r * w * s, r * w * c, -self.climb_rate))  # d/dτ
         ddpos = np.array((-r * w * w * c, -r * w * w * s, 0.0))
         return RefSample(pos, dpos * rate, ddpos * rate * rate + dpos * rate_dot, self.yaw)
+
+
+def _smooth(x: float) -> tuple[float, float, float]:
+    """Quintic smoothstep s(x) and its derivatives: rest-to-rest with zero acceleration at both ends."""
+    x = min(max(x, 0.0), 1.0)
+    return (10 * x**3 - 15 * x**4 + 6 * x**5, 30 * x**2 - 60 * x**3 + 30 * x**4, 60 * x - 180 * x**2 + 120 * x**3)
+
+
+PEAK_RATE = 1.875  # max of ds/dx for the quintic smoothstep
+
+
+@dataclass(frozen=True)
+class Waypoints:
+    """Rest-to-rest segments between points at a peak speed, with a dwell at each point."""
+
+    points_ned: tuple[tuple[float, float, float], ...]
+    speed: float = 2.0
+    dwell_s: float = 0.0
+    yaw: float | None = None  # None: face along each segment
+
+    def _segments(self) -> list[tuple[float, np.ndarray, np.ndarray, float, float]]:
+        """(start time, from, to, duration, yaw) per segment."""
+        out, t = [], 0.0
+        pts = [np.array(p, float) for p in self.points_ned]
+        for a, b in zip(pts, pts[1:]):
+            length = float(np.linalg.norm(b - a))
+            duration = max(PEAK_RATE * length / self.speed, 1e-6)
+            yaw = self.yaw if self.yaw is not None else math.atan2(b[1] - a[1], b[0] - a[0])
+            out.append((t, a, b, duration, yaw))
+            t += duration + self.dwell_s
+        return out
+
+    @property
+    def duration_s(self) -> float:
+        segments = self._segments()
+        return segments[-1][0] + segments[-1][3] if segments else 0.0
+
+    def sample(self, t: float) -> RefSample:
+        segments = self._segments()
+        start, a, b, duration, yaw = segments[0]
+        for segment in segments:
+            if t >= segment[0]:
+                start, a, b, duration, yaw = segment
+        s, ds, dds = _smooth((t - start) / duration)
+        delta = b - a
+        return RefSample(a + s * delta, ds / duration * delta, dds / duration**2 * delta, yaw)
+
+
+@dataclass(frozen=True)
+class Patrol:
+    """Inspection along a power line from `line_start` to `line_end` (NED, on the ground): fly parallel to
+    it at `standoff_m` to the right of the line direction and `altitude_m` above ground, facing the line,
+    back and forth `passes` times with `dwell_s` at each end."""
+
+    line_start_ned: tuple[float, float, float]
+    line_end_ned: tuple[float, float, float]
+    standoff_m: float = 5.0
+    altitude_m: float = 10.0
+    speed: float = 3.0
+    dwell_s: float = 2.0
+    passes: int = 2
+
+    def as_waypoints(self) -> Waypoints:
+        a, b = np.array(self.line_start_ned, float), np.array(self.line_end_ned, float)
+        direction = (b - a) / max(float(np.linalg.norm(b - a)), 1e-9)
+        right = np.array((-direction[1], direction[0], 0.0))
+        offset = self.standoff_m * right - np.array((0.0, 0.0, self.altitude_m))
+        ends = [tuple(a + offset), tuple(b + offset)]
+        points = [ends[i % 2] for i in range(self.passes + 1)]
+        facing_line = math.atan2(-right[1], -right[0])
+        return Waypoints(tuple(points), self.speed, self.dwell_s, facing_line)  # type: ignore[arg-type]
+
+    def sample(self, t: float) -> RefSample:
+        return self.as_waypoints().sample(t)

@@ -76,7 +76,8 @@ class SensorSuite:
         }
         self._has_faults = bool(config.faults)
 
-    def step(self, truth: TrueState) -> tuple[SensorReadings, GpsFix | None]:
+    def step(self, truth: TrueState, fault_time_s: float | None = None) -> tuple[SensorReadings, GpsFix | None]:
+        """Sensor outputs for this bench step; faults are timed by `fault_time_s` (default: bench time)."""
         t_us = truth.t_us
         accel, gyro = self.imu.sample(truth.specific_force_frd, truth.rates_frd)
         mag = self.mag.sample(truth.q_wxyz) if self._mag_due.due(t_us) else None
@@ -84,7 +85,8 @@ class SensorSuite:
             if self._baro_due.due(t_us) else None
         gps = self.gps.step(t_us, truth.pos_ned, truth.vel_ned)
         if self._has_faults:
-            accel, gyro, mag, baro, gps = self._apply_faults(t_us * 1e-6, accel, gyro, mag, baro, gps)
+            when = t_us * 1e-6 if fault_time_s is None else fault_time_s
+            accel, gyro, mag, baro, gps = self._apply_faults(when, accel, gyro, mag, baro, gps)
         return SensorReadings(t_us=t_us, accel_frd=accel, gyro_frd=gyro, mag_frd_t=mag, baro=baro), gps
 
     def _apply_faults(self, t_s: float, accel: Vec3, gyro: Vec3, mag: Vec3 | None, baro: Baro | None,

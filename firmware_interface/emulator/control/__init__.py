@@ -11,6 +11,8 @@ from firmware_interface.emulator.control.smarc import Smarc
 from firmware_interface.emulator.control.smpid import SlidingModePid
 
 CONTROLLERS = ("smarc", "smpid", "backstepping")
+# The order of each controller's values in its DEBUG_FLOAT_ARRAY (named after the controller).
+INTERNAL_KEYS: dict[str, tuple[str, ...]] = {c.name: c.internal_keys for c in (Smarc, SlidingModePid, Backstepping)}
 
 
 def make_controller(config: EmulatorConfig) -> Controller:
@@ -23,4 +25,4 @@ def make_controller(config: EmulatorConfig) -> Controller:
     return Backstepping(nominal, config.gains.backstepping)
 
 
-__all__ = ["CONTROLLERS", "ControlOutput", "Controller", "Nominal", "Setpoint", "VehicleState", "make_controller"]
+__all__ = ["CONTROLLERS", "INTERNAL_KEYS", "ControlOutput", "Controller", "Nominal", "Setpoint", "VehicleState", "make_controller"]

@@ -1,0 +1,30 @@
+"""One bench step, as the sinks (recorder, telemetry, metrics) receive it. SI units, NED/FRD."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from firmware_interface.hil_codec import GpsFix, SensorReadings
+from hil.scenario.environment import EnvironmentSample
+from hil.scenario.reference import RefSample
+
+
+@dataclass(slots=True)
+class StepFrame:
+    t_us: int  # bench (simulation) time
+    mission_t: float  # s; negative before the reference starts
+    phase: str
+    truth: np.ndarray  # plant outputs (plant_fmu.Plant.OUTPUT_NAMES order), a copy
+    on_ground: bool
+    reference: RefSample | None
+    readings: SensorReadings
+    gps: GpsFix | None
+    motors: tuple[float, ...]
+    armed: bool
+    environment: EnvironmentSample
+    board: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # board messages of this step
+    step_wall_s: float = 0.0
+    round_trip_s: float | None = None

@@ -1,0 +1,117 @@
+"""`hil run`: one scenario from file to run directory, exit code and summary."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from firmware_interface.board import BoardError
+from firmware_interface.link import LinkError
+from hil.bench import EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERRUPTED, EXIT_OK, Bench, Sink
+from hil.connect import BoardHandle, open_board, start_emulator
+from hil.metrics import check_expectations
+from hil.recorder import Recorder, make_run_dir
+from hil.scenario.schema import Scenario
+
+
+@dataclass
+class RunOptions:
+    port: str | None = None  # None: the built-in emulator on a pty
+    mavlink: str | None = None  # PX4 SITL: a separate MAVLink link for commands (e.g. udpout:127.0.0.1:14580)
+    realtime: bool = False
+    runs_root: Path = Path("runs")
+    watchdog_s: float = 1.0
+
+
+@dataclass
+class RunOutcome:
+    exit_code: int
+    reason: str
+    run_dir: Path
+    metrics: dict[str, Any]
+    failures: list[str]
+    summary: str
+
+
+def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | None = None,
+                 progress: Any = None) -> RunOutcome:
+    run_dir = make_run_dir(options.runs_root, scenario.name)
+    meta = {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
+            "board": "emulator" if options.port is None else options.port, "command_link": options.mavlink,
+            "pacing": "realtime" if options.realtime else "lockstep (realtime for a serial board)"}
+    recorder = Recorder(run_dir, scenario.model_dump(mode="json"), meta)
+    handle: BoardHandle | None = None
+    metrics: dict[str, Any] = {}
+    failures: list[str] = []
+    board_text = "not connected"
+    try:
+        try:
+            handle = (start_emulator(scenario, run_dir, options.watchdog_s) if options.port is None
+                      else open_board(options.port, options.mavlink, options.watchdog_s))
+            board_text = handle.description
+            handle.session.wait_heartbeat(10.0)
+            if handle.commands is not handle.session:
+                handle.commands.wait_heartbeat(10.0)
+        except (BoardError, LinkError) as exc:
+            reason, code = f"board/link failure: {exc}", EXIT_BOARD
+        except KeyboardInterrupt:
+            reason, code = "interrupted (Ctrl-C) while connecting", EXIT_INTERRUPTED
+        else:
+            bench = Bench(scenario, handle, options.realtime, [recorder.record, *(sinks or [])], progress,
+                          on_event=recorder.event)
+            result = bench.run()
+            reason, code, metrics = result.reason, result.exit_code, result.metrics
+            if code == EXIT_OK:
+                failures = check_expectations(scenario.expect, metrics)
+                code = EXIT_EXPECT_FAILED if failures else EXIT_OK
+    finally:
+        if handle is not None:
+            handle.close()
+        summary = format_summary(scenario, board_text, reason, code, metrics, failures)
+        recorder.finish({"exit_code": code, "reason": reason, "expectations_failed": failures, **metrics}, summary)
+    return RunOutcome(code, reason, run_dir, metrics, failures, summary)
+
+
+def _axis_line(label: str, stats: dict[str, dict[str, float]], unit: str) -> str:
+    parts = [f"{axis}: [{s['min']:+.3f}, {s['max']:+.3f}] rms {s['rms']:.3f} max|e| {s['max_abs']:.3f}"
+             for axis, s in stats.items() if s]
+    return f"{label} ({unit}): " + "; ".join(parts)
+
+
+def format_summary(scenario: Scenario, board: str, reason: str, code: int, metrics: dict[str, Any],
+                   failures: list[str]) -> str:
+    verdict = {EXIT_OK: "PASS", EXIT_EXPECT_FAILED: "FAIL"}.get(code, "ABORTED")
+    lines = [f"scenario: {scenario.name} (seed {scenario.seed}, {scenario.rate_hz:g} Hz, {scenario.duration_s:g} s)",
+             f"board: {board}, controller {scenario.board.controller}",
+             f"result: {verdict} (exit {code})", f"ended: {reason}"]
+    if "phase_reached" in metrics:
+        lines.append(f"phase reached: {metrics['phase_reached']}")
+    if "position_error_m" in metrics:
+        lines.append(_axis_line(f"position error after {metrics['settle_s']:g} s", metrics["position_error_m"], "m"))
+    if "attitude_error_deg" in metrics:
+        lines.append(_axis_line("attitude error vs commanded", metrics["attitude_error_deg"], "deg"))
+    for window in metrics.get("board_estimates", {}).get("mass_estimate_windows", []):
+        lines.append(f"mass estimate at {window['end_s']:.1f} s: {window['m_hat_kg']:.3f} kg "
+                     f"(true {window['true_mass_kg']:.2f} kg, {window['error_pct']:+.1f} %)")
+    timing = metrics.get("timing")
+    if timing:
+        rtf = timing.get("realtime_factor")
+        lines.append(f"timing: {timing['sim_s']:.2f} s simulated in {timing['wall_s']:.2f} s wall"
+                     + (f", real-time factor {rtf:.2f}" if rtf else ""))
+        if timing.get("round_trip_us"):
+            rt = timing["round_trip_us"]
+            lines.append(f"sensor -> actuator round trip: p50 {rt['p50']:.0f} us, p99 {rt['p99']:.0f} us")
+        if "period_jitter_us" in timing:
+            j = timing["period_jitter_us"]
+            lines.append(f"step period jitter: p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, max {j['max']:.0f} us, "
+                         f"late steps {timing['late_steps']}")
+    link = metrics.get("link")
+    if link:
+        errors = {k: v for k, v in link.items() if k not in ("frames_in", "frames_out", "bytes_in", "bytes_out") and v}
+        lines.append(f"link: {link.get('frames_in', 0)} frames in, {link.get('frames_out', 0)} out; "
+                     f"errors: {errors or 'none'}")
+    if scenario.expect is not None and code in (EXIT_OK, EXIT_EXPECT_FAILED):
+        lines.append("expectations: " + ("met" if not failures else "NOT met"))
+        lines += [f"  - {f}" for f in failures]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,60 @@
+"""What the world does to the vehicle at scenario time t: wind, disturbance force/torque, payload, motor health."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hil.scenario.expressions import compile_expression
+from hil.scenario.schema import Scenario
+from hil.scenario.wind import TURBULENCE_W20_KT, KNOT, DrydenTurbulence, one_minus_cosine
+
+
+@dataclass
+class EnvironmentSample:
+    wind_ned: np.ndarray
+    force_ned: np.ndarray
+    torque_frd: np.ndarray
+    payload_kg: float
+    motor_health: tuple[float, float, float, float]
+
+
+class Environment:
+    """Evaluates the scenario's environment. Before the mission (t < 0: preflight, take-off) only the
+    steady wind and the turbulence act; gusts, disturbances, payload steps and faults are mission events."""
+
+    def __init__(self, scenario: Scenario, dt: float, rng: np.random.Generator) -> None:
+        self.scenario = scenario
+        self.steady = np.array(scenario.wind.steady_ned, float)
+        self.gusts = [(g.start_s, g.duration_s, np.array(g.peak_ned, float)) for g in scenario.wind.gusts]
+        turbulence = scenario.wind.turbulence
+        self.turbulence = None
+        if turbulence is not None:
+            heading = math.atan2(self.steady[1], self.steady[0]) if np.any(self.steady[:2]) else 0.0
+            self.turbulence = DrydenTurbulence(TURBULENCE_W20_KT[turbulence.intensity] * KNOT, turbulence.altitude_m,
+                                               turbulence.airspeed_m_s, heading, dt, rng)
+        self.force = [compile_expression(e) for e in scenario.disturbance.force_ned]
+        self.torque = [compile_expression(e) for e in scenario.disturbance.torque_frd]
+        self.payload = sorted((p.t_s, p.mass_kg) for p in scenario.payload)
+        self.motor_faults = scenario.faults.motors
+
+    def sample(self, t: float) -> EnvironmentSample:
+        wind = self.steady.copy()
+        if self.turbulence is not None:
+            wind += self.turbulence.sample()
+        if t < 0:
+            return EnvironmentSample(wind, np.zeros(3), np.zeros(3), 0.0, (1.0, 1.0, 1.0, 1.0))
+        for start, duration, peak in self.gusts:
+            wind += one_minus_cosine(t, start, duration) * peak
+        payload = 0.0
+        for at, mass in self.payload:
+            if t >= at:
+                payload = mass
+        health = [1.0, 1.0, 1.0, 1.0]
+        for fault in self.motor_faults:
+            if fault.start_s <= t < fault.end_s:
+                health[fault.motor - 1] = min(health[fault.motor - 1], fault.health)
+        return EnvironmentSample(wind, np.array([f(t) for f in self.force]), np.array([f(t) for f in self.torque]),
+                                 payload, tuple(health))  # type: ignore[arg-type]

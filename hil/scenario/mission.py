@@ -1,0 +1,59 @@
+"""The flight plan of a run: take off to the reference's start, fly the reference, land.
+
+Times: the mission clock t is 0 when the reference starts; take-off happens at t < 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hil.scenario.reference import Helix, Hover, Patrol, RefSample, Trajectory, Waypoints
+from hil.scenario.schema import HelixRef, HoverRef, PatrolRef, Scenario, WaypointsRef
+
+CLIMB_SPEED = 1.5  # m/s peak on the take-off and landing segments
+HOLD_BEFORE_S = 2.0  # hover at the start point before the mission clock starts
+
+
+def build_reference(scenario: Scenario) -> Trajectory:
+    ref = scenario.reference
+    if isinstance(ref, HoverRef):
+        return Hover((ref.north_m, ref.east_m, -ref.altitude_m), math.radians(ref.yaw_deg))
+    if isinstance(ref, HelixRef):
+        return Helix((0.0, 0.0, -ref.altitude_m), ref.radius_m, ref.angular_rate, ref.climb_rate,
+                     math.radians(ref.yaw_deg), ref.ramp_s)
+    if isinstance(ref, WaypointsRef):
+        yaw = math.radians(ref.yaw_deg) if ref.yaw_deg is not None else None
+        return Waypoints(tuple(ref.points_ned), ref.speed, ref.dwell_s, yaw)
+    assert isinstance(ref, PatrolRef)
+    return Patrol(ref.line_start_ned, ref.line_end_ned, ref.standoff_m, ref.altitude_m, ref.speed, ref.dwell_s,
+                  ref.passes)
+
+
+@dataclass
+class MissionPlan:
+    reference: Trajectory
+    takeoff: Waypoints
+    takeoff_s: float  # take-off and hold before t = 0
+    duration_s: float
+
+    @classmethod
+    def build(cls, scenario: Scenario, ground_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> MissionPlan:
+        reference = build_reference(scenario)
+        start = reference.sample(0.0)
+        above_ground = (ground_ned[0], ground_ned[1], float(start.pos_ned[2]))
+        takeoff = Waypoints((ground_ned, above_ground, tuple(float(v) for v in start.pos_ned)), CLIMB_SPEED,
+                            0.0, start.yaw)
+        return cls(reference, takeoff, takeoff.duration_s + HOLD_BEFORE_S, scenario.duration_s)
+
+    def sample(self, t: float) -> RefSample:
+        """Reference at mission time t (negative during take-off)."""
+        if t >= 0:
+            return self.reference.sample(t)
+        return self.takeoff.sample(t + self.takeoff_s)
+
+    def landing(self, from_ned: np.ndarray, yaw: float) -> Waypoints:
+        ground = (float(from_ned[0]), float(from_ned[1]), 0.0)
+        return Waypoints((tuple(float(v) for v in from_ned), ground), CLIMB_SPEED, 0.0, yaw)

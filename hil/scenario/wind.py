@@ -1,0 +1,76 @@
+"""Wind in NED: a steady vector, 1-cosine gusts, and Dryden turbulence (MIL-F-8785C, seeded)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+FT = 0.3048
+KNOT = 0.514444
+TURBULENCE_W20_KT = {"light": 15.0, "moderate": 30.0, "severe": 45.0}  # wind at 20 ft, MIL-F-8785C
+
+
+def one_minus_cosine(t: float, start_s: float, duration_s: float) -> float:
+    """0 → 1 → 0 shape of a discrete gust: ½(1 − cos(2π (t − start)/duration)) inside the gust."""
+    if t < start_s or t > start_s + duration_s:
+        return 0.0
+    return 0.5 * (1.0 - math.cos(2 * math.pi * (t - start_s) / duration_s))
+
+
+class DrydenTurbulence:
+    """Low-altitude Dryden model (MIL-F-8785C / MIL-HDBK-1797), h in ft for the scale formulas.
+
+    σ_w = 0.1·W20, σ_u/σ_w = σ_v/σ_w = 1/(0.177 + 0.000823 h)^0.4,
+    L_w = h, L_u = L_v = h/(0.177 + 0.000823 h)^1.2;
+    H_u = σ_u √(2L_u/πV) / (1 + (L_u/V) s),
+    H_v = σ_v √(L_v/πV) (1 + √3 (L_v/V) s) / (1 + (L_v/V) s)², H_w likewise with L_w.
+    u is along the mean wind, v across it, w vertical (down in NED). White noise of unit PSD is
+    sampled as N(0, 1)/√dt and the filters are discretised exactly (zero-order hold).
+    """
+
+    def __init__(self, w20_m_s: float, altitude_m: float, airspeed_m_s: float, heading_rad: float,
+                 dt: float, rng: np.random.Generator) -> None:
+        h_ft = max(altitude_m / FT, 10.0)  # the low-altitude model is defined from 10 ft up
+        ratio = 1.0 / (0.177 + 0.000823 * h_ft) ** 0.4
+        self.sigma_w = 0.1 * w20_m_s
+        self.sigma_u = self.sigma_v = self.sigma_w * ratio
+        self.length_w = h_ft * FT
+        self.length_u = self.length_v = h_ft / (0.177 + 0.000823 * h_ft) ** 1.2 * FT
+        self.airspeed = max(airspeed_m_s, 1.0)
+        self.heading = heading_rad
+        self.dt = dt
+        self.rng = rng
+        self._u = self._first_order(self.sigma_u, self.length_u)
+        self._v = self._second_order(self.sigma_v, self.length_v)
+        self._w = self._second_order(self.sigma_w, self.length_w)
+
+    def _first_order(self, sigma: float, length: float) -> dict:
+        tau = length / self.airspeed
+        gain = sigma * math.sqrt(2 * length / (math.pi * self.airspeed))
+        a = math.exp(-self.dt / tau)
+        return {"a": a, "b": gain * (1 - a), "x": 0.0}
+
+    def _second_order(self, sigma: float, length: float) -> dict:
+        # (1 + √3 τ s)/(1 + τ s)² in controllable form, stepped with the exact exponential
+        tau = length / self.airspeed
+        gain = sigma * math.sqrt(length / (math.pi * self.airspeed))
+        a_c = np.array(((0.0, 1.0), (-1.0 / tau**2, -2.0 / tau)))
+        b_c = np.array((0.0, 1.0 / tau**2))
+        c = gain * np.array((1.0, math.sqrt(3) * tau))
+        pole = -1.0 / tau  # a double pole: exp(A dt) = e^{λ dt} (I + dt (A − λ I))
+        a_d = math.exp(pole * self.dt) * (np.eye(2) + self.dt * (a_c - pole * np.eye(2)))
+        b_d = np.linalg.solve(a_c, (a_d - np.eye(2)) @ b_c)
+        return {"A": a_d, "B": b_d, "C": c, "x": np.zeros(2)}
+
+    def sample(self) -> np.ndarray:
+        """Turbulence velocity in NED for this step."""
+        n = self.rng.standard_normal(3) / math.sqrt(self.dt)  # unit-PSD white noise, sampled
+        u = self._u
+        u["x"] = u["a"] * u["x"] + u["b"] * n[0]
+        v, w = self._v, self._w
+        v["x"] = v["A"] @ v["x"] + v["B"] * n[1]
+        w["x"] = w["A"] @ w["x"] + w["B"] * n[2]
+        along, across, down = u["x"], float(v["C"] @ v["x"]), float(w["C"] @ w["x"])
+        c, s = math.cos(self.heading), math.sin(self.heading)
+        return np.array((along * c - across * s, along * s + across * c, down))
