@@ -17,8 +17,7 @@ fmu: $(STAMP)
 	$(BIN)/hil fmu build
 
 run: fmu
-	$(BIN)/hil fmu check
-	$(BIN)/hil fmu hover --seconds 5
+	$(BIN)/hil run scenarios/gust.yaml
 
 test: fmu
 	$(BIN)/python -m pytest -q

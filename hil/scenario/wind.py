@@ -25,8 +25,9 @@ class DrydenTurbulence:
     L_w = h, L_u = L_v = h/(0.177 + 0.000823 h)^1.2;
     H_u = σ_u √(2L_u/πV) / (1 + (L_u/V) s),
     H_v = σ_v √(L_v/πV) (1 + √3 (L_v/V) s) / (1 + (L_v/V) s)², H_w likewise with L_w.
-    u is along the mean wind, v across it, w vertical (down in NED). White noise of unit PSD is
-    sampled as N(0, 1)/√dt and the filters are discretised exactly (zero-order hold).
+    u is along the mean wind, v across it, w vertical (down in NED). The spectra are normalised so that
+    ∫₀^∞ |H(jω)|² dω = σ², which takes white noise of two-sided PSD π: sampled as N(0, 1)·√(π/dt), held
+    over the step, through filters discretised exactly.
     """
 
     def __init__(self, w20_m_s: float, altitude_m: float, airspeed_m_s: float, heading_rad: float,
@@ -65,7 +66,7 @@ class DrydenTurbulence:
 
     def sample(self) -> np.ndarray:
         """Turbulence velocity in NED for this step."""
-        n = self.rng.standard_normal(3) / math.sqrt(self.dt)  # unit-PSD white noise, sampled
+        n = self.rng.standard_normal(3) * math.sqrt(math.pi / self.dt)
         u = self._u
         u["x"] = u["a"] * u["x"] + u["b"] * n[0]
         v, w = self._v, self._w
