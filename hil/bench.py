@@ -132,6 +132,8 @@ class Bench:
         self.armed = False
         self.events: list[tuple[int, str]] = []
         self._started = time.perf_counter()
+        self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
+        self._sinks_started = 0.0
 
     # --- the run -----------------------------------------------------------------
     def run(self) -> RunResult:
@@ -148,6 +150,7 @@ class Bench:
         except KeyboardInterrupt:
             reason, code = "interrupted (Ctrl-C)", EXIT_INTERRUPTED
         finally:
+            self._flush_pending()
             self.metrics.wall_s = time.perf_counter() - start_wall
             self.metrics.sim_s = self.t_us * 1e-6
             self.plant.close()
@@ -265,19 +268,26 @@ class Bench:
         u[self._force_idx] = env.force_ned
         u[self._torque_idx] = env.torque_frd
         u[self._payload_idx] = env.payload_kg
+        t_env = time.perf_counter()
         self.plant.set_inputs(u)
         out = self.plant.step(self.dt)
         self.t_us += self.dt_us
+        t_plant = time.perf_counter()
         truth = TrueState(self.t_us, out[self._pos], out[self._vel], out[self._quat], out[self._rates], out[self._force])
         readings, gps = self.sensors.step(truth, mission_t if mission_t > -math.inf else None)
         session = self.board.session
         sent = time.perf_counter()
-        session.send_step(readings, gps, self._ground_truth(out) if self.send_truth else None)
-        if reference is not None:
+        session.link.begin_batch()  # setpoint first, then sensors, in one write: the board flies this step
+        if reference is not None:  # on this step's setpoint whatever the scheduling (and deterministically)
             self.board.commands.send_setpoint(self.t_us // 1000, tuple(reference.pos_ned), tuple(reference.vel_ned),
                                               tuple(reference.acc_ned), reference.yaw)
+        session.send_step(readings, gps, self._ground_truth(out) if self.send_truth else None)
+        session.link.flush()
+        self._flush_pending()  # the previous step's sinks run while the board computes this one
+        t_sent = time.perf_counter()
         actuators = session.await_reply()
-        round_trip = time.perf_counter() - sent if session.lockstep else None
+        t_reply = time.perf_counter()
+        round_trip = t_reply - sent if session.lockstep else None
         if actuators is not None:
             self.motors, self.armed = actuators.motors, actuators.armed
         board = [p for p in (_board_payload(m) for m in self._drain_inbox()) if p is not None]
@@ -286,9 +296,23 @@ class Bench:
                 self._event(f"board: {payload['text']}")
         frame = StepFrame(self.t_us, mission_t, self.phase, out.copy(), self.plant.on_ground, reference, readings, gps,
                           self.motors, self.armed, env, board, time.perf_counter() - step_start, round_trip)
-        self.metrics.add(frame)
-        for sink in self.sinks:
-            sink(frame)
+        self._pending = frame
+        b = self.metrics.breakdown_s
+        b["environment"] += t_env - step_start
+        b["plant"] += t_plant - t_env
+        b["sensors"] += sent - t_plant
+        b["encode_and_send"] += self._sinks_started - sent
+        b["sinks_of_previous_step"] += t_sent - self._sinks_started
+        b["wait_for_board"] += t_reply - t_sent
+        b["frame"] += time.perf_counter() - t_reply
+
+    def _flush_pending(self) -> None:
+        self._sinks_started = time.perf_counter()
+        frame, self._pending = self._pending, None
+        if frame is not None:
+            self.metrics.add(frame)
+            for sink in self.sinks:
+                sink(frame)
 
     def _drain_inbox(self) -> list[Message]:
         messages = self.board.session.inbox

@@ -55,6 +55,9 @@ class MetricsCollector:
     round_trip_s: list[float] = field(default_factory=list)
     step_starts: list[float] = field(default_factory=list)
     late_steps: int = 0
+    breakdown_s: dict[str, float] = field(default_factory=lambda: dict.fromkeys(
+        ("environment", "plant", "sensors", "encode_and_send", "sinks_of_previous_step", "wait_for_board", "frame"),
+        0.0))
     sim_s: float = 0.0
     wall_s: float = 0.0
 
@@ -92,6 +95,7 @@ class MetricsCollector:
             "sim_s": self.sim_s, "wall_s": wall, "realtime_factor": self.sim_s / wall if wall > 0 else None,
             "step_wall_us": _percentiles([s * 1e6 for s in self.step_wall_s]),
             "round_trip_us": _percentiles([s * 1e6 for s in self.round_trip_s]),
+            "breakdown_us_per_step": {k: v / max(len(self.step_wall_s), 1) * 1e6 for k, v in self.breakdown_s.items()},
         }
         if realtime and len(self.step_starts) > 1:
             periods = np.diff(self.step_starts)

@@ -37,6 +37,7 @@ class Link:
         self.bytes_out = 0
         self.frames_out = 0
         self._closed = False
+        self._batch: bytearray | None = None
 
     def send(self, message: str, /, **fields: Any) -> None:
         """Send one message by name, e.g. `send("HEARTBEAT", type=2, ...)`."""
@@ -46,9 +47,22 @@ class Link:
         self.send_frame(self.encoder.encode(message_class(message), fields))
 
     def send_frame(self, frame: bytes) -> None:
-        self.transport.write(frame)
         self.bytes_out += len(frame)
         self.frames_out += 1
+        if self._batch is not None:
+            self._batch += frame
+        else:
+            self.transport.write(frame)
+
+    def begin_batch(self) -> None:
+        """Collect the frames sent from now on and write them at `flush()` in one piece: the board then
+        reads everything of one step together, whatever the scheduling."""
+        self._batch = bytearray()
+
+    def flush(self) -> None:
+        batch, self._batch = self._batch, None
+        if batch:
+            self.transport.write(bytes(batch))
 
     def receive(self, timeout_s: float) -> list[Message]:
         """Messages that arrive within `timeout_s` (returns as soon as one batch is in)."""

@@ -39,39 +39,42 @@ class DrydenTurbulence:
         self.length_w = h_ft * FT
         self.length_u = self.length_v = h_ft / (0.177 + 0.000823 * h_ft) ** 1.2 * FT
         self.airspeed = max(airspeed_m_s, 1.0)
-        self.heading = heading_rad
+        self._cos, self._sin = math.cos(heading_rad), math.sin(heading_rad)
         self.dt = dt
         self.rng = rng
         self._u = self._first_order(self.sigma_u, self.length_u)
         self._v = self._second_order(self.sigma_v, self.length_v)
         self._w = self._second_order(self.sigma_w, self.length_w)
 
-    def _first_order(self, sigma: float, length: float) -> dict:
+    def _first_order(self, sigma: float, length: float) -> list[float]:
+        """[a, b, x] of x ← a·x + b·n for H = K/(1 + τs), held input."""
         tau = length / self.airspeed
         gain = sigma * math.sqrt(2 * length / (math.pi * self.airspeed))
         a = math.exp(-self.dt / tau)
-        return {"a": a, "b": gain * (1 - a), "x": 0.0}
+        return [a, gain * (1 - a), 0.0]
 
-    def _second_order(self, sigma: float, length: float) -> dict:
-        # (1 + √3 τ s)/(1 + τ s)² in controllable form, stepped with the exact exponential
+    def _second_order(self, sigma: float, length: float) -> list[float]:
+        """[a11, a12, a21, a22, b1, b2, c1, c2, x1, x2] for H = K(1 + √3 τs)/(1 + τs)², held input."""
         tau = length / self.airspeed
         gain = sigma * math.sqrt(length / (math.pi * self.airspeed))
         a_c = np.array(((0.0, 1.0), (-1.0 / tau**2, -2.0 / tau)))
         b_c = np.array((0.0, 1.0 / tau**2))
-        c = gain * np.array((1.0, math.sqrt(3) * tau))
         pole = -1.0 / tau  # a double pole: exp(A dt) = e^{λ dt} (I + dt (A − λ I))
         a_d = math.exp(pole * self.dt) * (np.eye(2) + self.dt * (a_c - pole * np.eye(2)))
         b_d = np.linalg.solve(a_c, (a_d - np.eye(2)) @ b_c)
-        return {"A": a_d, "B": b_d, "C": c, "x": np.zeros(2)}
+        return [*a_d.ravel().tolist(), *b_d.tolist(), gain, gain * math.sqrt(3) * tau, 0.0, 0.0]
+
+    @staticmethod
+    def _step2(f: list[float], n: float) -> float:
+        x1, x2 = f[8], f[9]
+        f[8], f[9] = f[0] * x1 + f[1] * x2 + f[4] * n, f[2] * x1 + f[3] * x2 + f[5] * n
+        return f[6] * f[8] + f[7] * f[9]
 
     def sample(self) -> np.ndarray:
         """Turbulence velocity in NED for this step."""
-        n = self.rng.standard_normal(3) * math.sqrt(math.pi / self.dt)
+        n = (self.rng.standard_normal(3) * math.sqrt(math.pi / self.dt)).tolist()
         u = self._u
-        u["x"] = u["a"] * u["x"] + u["b"] * n[0]
-        v, w = self._v, self._w
-        v["x"] = v["A"] @ v["x"] + v["B"] * n[1]
-        w["x"] = w["A"] @ w["x"] + w["B"] * n[2]
-        along, across, down = u["x"], float(v["C"] @ v["x"]), float(w["C"] @ w["x"])
-        c, s = math.cos(self.heading), math.sin(self.heading)
+        u[2] = u[0] * u[2] + u[1] * n[0]
+        along, across, down = u[2], self._step2(self._v, n[1]), self._step2(self._w, n[2])
+        c, s = self._cos, self._sin
         return np.array((along * c - across * s, along * s + across * c, down))

@@ -1,0 +1,127 @@
+"""Real-time factor of `hil run scenarios/gust.yaml` (60 s simulated, lockstep, SMARC on the emulator)
+and where each step's time goes, next to two floors: a bare ping-pong over the pty with a board that
+echoes one frame per HIL_SENSOR, and the whole bench step with that echo board (no flight code)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from firmware_interface import hil_codec as codec  # noqa: E402
+from firmware_interface.link import Link, open_pty_pair  # noqa: E402
+from firmware_interface.link.encoder import FrameEncoder, message_class  # noqa: E402
+from firmware_interface.link.transports import SerialTransport  # noqa: E402
+from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState  # noqa: E402
+from plant_fmu import Plant  # noqa: E402
+
+STEPS = 5000
+
+
+def echo_board(port: str) -> None:
+    """Answers every HIL_SENSOR with one HIL_ACTUATOR_CONTROLS echoing its time: no flight code."""
+    link = Link(SerialTransport(port))
+    try:
+        while True:
+            for msg in link.receive(1.0):
+                if msg.get_type() == "HIL_SENSOR":
+                    link.send_fields("HIL_ACTUATOR_CONTROLS",
+                                     codec.hil_actuator_controls_fields(msg.time_usec, (0.0,) * 4, False, True))
+    except Exception:  # noqa: BLE001 - the bench closed the pty: done
+        return
+
+
+def start_echo() -> tuple[Link, subprocess.Popen[bytes]]:
+    pair = open_pty_pair()
+    proc = subprocess.Popen([sys.executable, __file__, "--echo", pair.slave_path])
+    link = Link(pair.master)
+    time.sleep(1.0)
+    pair.release_slave()
+    return link, proc
+
+
+def wait_reply(link: Link, t_us: int) -> None:
+    while True:
+        for msg in link.receive(1.0):
+            if msg.get_type() == "HIL_ACTUATOR_CONTROLS" and msg.time_usec >= t_us:
+                return
+
+
+def ping_pong_floor() -> float:
+    link, proc = start_echo()
+    encoder = FrameEncoder(1, 51)
+    readings = codec.SensorReadings(0, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
+    start = time.perf_counter()
+    for k in range(1, STEPS + 1):
+        link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(
+            codec.SensorReadings(4000 * k, readings.accel_frd, readings.gyro_frd))))
+        wait_reply(link, 4000 * k)
+    elapsed = (time.perf_counter() - start) / STEPS
+    link.close()
+    proc.wait(5)
+    return elapsed
+
+
+def bench_step_floor() -> float:
+    """Plant + sensors + codec + pty round trip to the echo board, per step."""
+    link, proc = start_echo()
+    encoder = FrameEncoder(1, 51)
+    suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
+    with Plant({"init_pos_d": -10.0}) as plant:
+        o = plant.output_index
+        pos, vel = [o[n] for n in ("pos_n", "pos_e", "pos_d")], [o[n] for n in ("vel_n", "vel_e", "vel_d")]
+        quat, rates = [o[n] for n in ("q_w", "q_x", "q_y", "q_z")], [o[n] for n in ("rate_x", "rate_y", "rate_z")]
+        force = [o[n] for n in ("specific_force_x", "specific_force_y", "specific_force_z")]
+        u = np.zeros(len(plant.INPUT_NAMES))
+        start = time.perf_counter()
+        for k in range(1, STEPS + 1):
+            plant.set_inputs(u)
+            out = plant.step(0.004)
+            readings, gps = suite.step(TrueState(4000 * k, out[pos], out[vel], out[quat], out[rates], out[force]))
+            if gps is not None:
+                link.send_frame(encoder.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps)))
+            link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings)))
+            wait_reply(link, 4000 * k)
+        elapsed = (time.perf_counter() - start) / STEPS
+    link.close()
+    proc.wait(5)
+    return elapsed
+
+
+def full_run() -> dict:
+    with tempfile.TemporaryDirectory() as runs:
+        subprocess.run([sys.executable, "-m", "hil.cli", "run", str(ROOT / "scenarios" / "gust.yaml"), "--runs", runs],
+                       check=True, capture_output=True, cwd=ROOT)
+        run_dir = next(Path(runs).iterdir())
+        return json.loads((run_dir / "metrics.json").read_text())["timing"]
+
+
+def main() -> None:
+    ping = ping_pong_floor()
+    floor = bench_step_floor()
+    timing = full_run()
+    print("loop speed, 250 Hz bench steps (4 ms of simulated time each)")
+    print(f"  floor: pty ping-pong with an echo board      {ping * 1e6:7.1f} us/step  -> {0.004 / ping:5.1f}x real time")
+    print(f"  floor: bench step (plant, sensors, codec) + echo {floor * 1e6:5.1f} us/step  -> {0.004 / floor:5.1f}x real time")
+    print(f"  gust.yaml, SMARC on the emulator: {timing['sim_s']:.1f} s simulated in {timing['wall_s']:.1f} s "
+          f"-> {timing['realtime_factor']:.2f}x real time")
+    print(f"  sensor -> actuator round trip: p50 {timing['round_trip_us']['p50']:.0f} us, "
+          f"p99 {timing['round_trip_us']['p99']:.0f} us")
+    print("  where a step's time goes (us/step):")
+    for part, us in timing["breakdown_us_per_step"].items():
+        print(f"    {part:20s} {us:7.1f}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 3 and sys.argv[1] == "--echo":
+        echo_board(sys.argv[2])
+    else:
+        main()
