@@ -52,9 +52,9 @@ def test_smarc_mass_estimate_follows_the_paper_mass_schedule():
 
 def test_smarc_sliding_variable_goes_to_zero_without_disturbances():
     config = build_config({"airframe": "paper_airframe", "controller": "smarc"})
-    trace = fly(config, PAPER_PLANT, helix(10.0), 20.0, dt=0.001, start=(1.0, 0.0, -10.0))
+    trace = fly(config, PAPER_PLANT, helix(10.0), 20.0, dt=0.001, start=(1.3, -0.2, -9.7))  # off the reference
     s1 = np.array([[i["s1_x"], i["s1_y"], i["s1_z"]] for i in trace.internals])
-    assert np.linalg.norm(s1[trace.t < 1.0], axis=1).max() > 0.1  # the start is a real transient
+    assert np.linalg.norm(s1[0]) > 0.5  # a real initial error: S1 = ė + λ1 e with |e| ≈ 0.47 m
     assert np.linalg.norm(s1[-1000:], axis=1).max() < 5e-3
 
 

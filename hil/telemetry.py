@@ -1,0 +1,145 @@
+"""Live telemetry over Zenoh: key space `hil/<run_id>/<channel>`, JSON samples with `t_us`.
+
+Publishing never blocks the loop: publishers use congestion control DROP, serialisation happens in
+the bench's sink slot (which overlaps the board's computation), and a slow or dead subscriber only
+loses samples. A liveliness token `hil/<run_id>` announces a running bench and a queryable
+`hil/<run_id>/meta` answers the resolved scenario and run metadata to late joiners. Rates are per
+channel, in samples per second of simulated time (equal to wall time when paced in real time).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import orjson
+import zenoh
+
+from hil.frame import StepFrame
+from hil.recorder import CHANNELS, frame_messages
+
+DEFAULT_RATES_HZ: dict[str, float] = {
+    "state": 50.0, "reference": 50.0, "sensors/imu": 50.0, "sensors/gps": 10.0, "sensors/baro": 10.0,
+    "sensors/mag": 10.0, "actuators": 50.0, "environment": 10.0, "board": 50.0, "timing": 10.0, "events": 1e9,
+}
+KEY_PREFIX = "hil"
+
+
+@dataclass
+class ZenohOptions:
+    """Peer mode with multicast scouting by default (zero configuration on one machine); `connect` and
+    `listen` endpoints (e.g. tcp/192.0.2.10:7447) join an existing Zenoh network; or a config file."""
+
+    connect: list[str] = field(default_factory=list)
+    listen: list[str] = field(default_factory=list)
+    config_file: Path | None = None
+    multicast_scouting: bool = True
+
+
+def open_session(options: ZenohOptions) -> zenoh.Session:
+    config = zenoh.Config.from_file(str(options.config_file)) if options.config_file else zenoh.Config()
+    if options.connect:
+        config.insert_json5("connect/endpoints", json.dumps(options.connect))
+    if options.listen:
+        config.insert_json5("listen/endpoints", json.dumps(options.listen))
+    if not options.multicast_scouting:
+        config.insert_json5("scouting/multicast/enabled", "false")
+    return zenoh.open(config)
+
+
+class TelemetryPublisher:
+    """A bench sink that publishes every channel at its rate, plus meta, liveliness and the summary."""
+
+    def __init__(self, session: zenoh.Session, run_id: str, meta: dict[str, Any],
+                 rates_hz: dict[str, float] | None = None,
+                 link_counters: Callable[[], dict[str, int]] | None = None) -> None:
+        self.session = session
+        self.run_id = run_id
+        self.prefix = f"{KEY_PREFIX}/{run_id}"
+        rates = {**DEFAULT_RATES_HZ, **(rates_hz or {})}
+        self._period_us = {c: int(1e6 / rates[c]) for c in CHANNELS}
+        self._next_us = dict.fromkeys(CHANNELS, 0)
+        json_encoding = zenoh.Encoding.APPLICATION_JSON
+        self._publishers = {
+            c: session.declare_publisher(f"{self.prefix}/{c}", encoding=json_encoding,
+                                         congestion_control=zenoh.CongestionControl.DROP)
+            for c in (*CHANNELS, "summary")
+        }
+        meta_payload = orjson.dumps(meta, default=str)
+        self._queryable = session.declare_queryable(
+            f"{self.prefix}/meta", lambda query: query.reply(f"{self.prefix}/meta", meta_payload, encoding=json_encoding))
+        self._token = session.liveliness().declare_token(self.prefix)
+        self._link_counters = link_counters
+        self._next_link_us = 0
+        self.published = 0
+
+    def __call__(self, frame: StepFrame) -> None:
+        t_us = frame.t_us
+        for channel, payload in frame_messages(frame):
+            if channel not in ("board", "events"):
+                if t_us < self._next_us[channel]:
+                    continue
+                self._next_us[channel] = max(self._next_us[channel] + self._period_us[channel], t_us)
+            self._put(channel, payload)
+        if self._link_counters is not None and t_us >= self._next_link_us:
+            self._next_link_us = t_us + 1_000_000
+            self._put("board", {"t_us": t_us, "message": "LINK", **self._link_counters()})
+
+    def event(self, t_us: int, text: str) -> None:
+        self._put("events", {"t_us": t_us, "text": text})
+
+    def _put(self, channel: str, payload: dict[str, Any]) -> None:
+        self._publishers[channel].put(orjson.dumps(payload, option=orjson.OPT_SERIALIZE_NUMPY))
+        self.published += 1
+
+    def summary(self, t_us: int, metrics: dict[str, Any], text: str) -> None:
+        self._put("summary", {"t_us": t_us, "metrics": metrics, "text": text})
+
+    def close(self) -> None:
+        """Undeclare everything before the session closes (zenoh-python can hang on exit otherwise)."""
+        self._token.undeclare()
+        self._queryable.undeclare()
+        for publisher in self._publishers.values():
+            publisher.undeclare()
+
+
+@dataclass
+class Subscription:
+    """Handle of `subscribe`: call `close()` when done (it undeclares, then closes its own session)."""
+
+    session: zenoh.Session
+    subscribers: list[Any]
+    owns_session: bool
+
+    def close(self) -> None:
+        for subscriber in self.subscribers:
+            subscriber.undeclare()
+        if self.owns_session:
+            self.session.close()
+
+
+def subscribe(key_expr: str, callback: Callable[[str, dict[str, Any]], None],
+              options: ZenohOptions | None = None, session: zenoh.Session | None = None) -> Subscription:
+    """Call `callback(key, sample)` for every JSON sample on `key_expr` (e.g. "hil/**/state")."""
+    own = session is None
+    session = session or open_session(options or ZenohOptions())
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        try:
+            data = orjson.loads(sample.payload.to_bytes())
+        except orjson.JSONDecodeError:
+            return
+        callback(str(sample.key_expr), data)
+
+    return Subscription(session, [session.declare_subscriber(key_expr, on_sample)], own)
+
+
+def fetch_meta(session: zenoh.Session, run_id: str, timeout_s: float = 2.0) -> dict[str, Any] | None:
+    """The resolved scenario and metadata of a running bench (the `hil/<run_id>/meta` queryable)."""
+    for reply in session.get(f"{KEY_PREFIX}/{run_id}/meta", timeout=timeout_s):
+        if reply.ok is not None:
+            return orjson.loads(reply.ok.payload.to_bytes())
+    return None
