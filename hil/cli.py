@@ -78,12 +78,50 @@ def _cmd_run(args: argparse.Namespace) -> int:
         scenario = scenario.model_copy(update={"seed": args.seed})
     if args.controller:
         scenario = scenario.model_copy(update={"board": scenario.board.model_copy(update={"controller": args.controller})})
-    options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, runs_root=Path(args.runs))
+    rates = {}
+    for item in args.telemetry_rate or []:
+        channel, _, hz = item.partition("=")
+        try:
+            rates[channel] = float(hz)
+        except ValueError:
+            print(f"hil run: --telemetry-rate {item}: expected CHANNEL=HZ, e.g. state=50", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, runs_root=Path(args.runs),
+                         telemetry=None if args.no_telemetry else _zenoh_options(args), telemetry_rates_hz=rates)
     with progress_printer(scenario.name) as progress:
         outcome = run_scenario(scenario, options, progress=progress)
     print(outcome.summary, end="")
     print(f"run directory: {outcome.run_dir}")
     return outcome.exit_code
+
+
+def _zenoh_options(args: argparse.Namespace):  # noqa: ANN202 - hil.telemetry is imported lazily
+    from hil.telemetry import ZenohOptions
+
+    endpoints = bool(args.zenoh_connect or args.zenoh_listen)
+    return ZenohOptions(connect=args.zenoh_connect or [], listen=args.zenoh_listen or [],
+                        config_file=Path(args.zenoh_config) if args.zenoh_config else None,
+                        multicast_scouting=not endpoints)
+
+
+def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("Zenoh", "default: a peer that finds others on this machine by multicast "
+                                               "scouting; with endpoints, scouting is off")
+    group.add_argument("--zenoh-connect", action="append", metavar="ENDPOINT", help="e.g. tcp/192.0.2.10:7447")
+    group.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT", help="e.g. tcp/0.0.0.0:7447")
+    group.add_argument("--zenoh-config", metavar="FILE", help="a Zenoh JSON5 configuration file")
+
+
+def _cmd_watch(args: argparse.Namespace) -> int:
+    from hil.watch import watch
+
+    return watch(None if args.latest else args.run_id, _zenoh_options(args), args.wait)
+
+
+def _cmd_echo(args: argparse.Namespace) -> int:
+    from hil.watch import echo
+
+    return echo(args.key_expr, _zenoh_options(args))
 
 
 def _cmd_ports(args: argparse.Namespace) -> int:
@@ -133,7 +171,21 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--controller", choices=("smarc", "smpid", "backstepping"), help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--runs", default="runs", help="where run directories go (default runs/)")
+    run.add_argument("--no-telemetry", action="store_true", help="do not publish on Zenoh")
+    run.add_argument("--telemetry-rate", action="append", metavar="CHANNEL=HZ", help="e.g. state=100 (repeatable)")
+    _add_zenoh_arguments(run)
     run.set_defaults(func=_cmd_run)
+    watch = sub.add_parser("watch", help="live view of a running bench (Zenoh)")
+    target = watch.add_mutually_exclusive_group(required=True)
+    target.add_argument("run_id", nargs="?", help="a run id (its run directory's name)")
+    target.add_argument("--latest", action="store_true", help="the newest running bench, or the next to start")
+    watch.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a run to appear")
+    _add_zenoh_arguments(watch)
+    watch.set_defaults(func=_cmd_watch)
+    echo = sub.add_parser("echo", help="print telemetry samples as JSON lines, e.g. hil echo 'hil/**/state'")
+    echo.add_argument("key_expr")
+    _add_zenoh_arguments(echo)
+    echo.set_defaults(func=_cmd_echo)
     check = sub.add_parser("check", help="validate scenario files without running them")
     check.add_argument("files", nargs="+")
     check.set_defaults(func=_cmd_check)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +13,7 @@ from hil.connect import BoardHandle, open_board, start_emulator
 from hil.metrics import check_expectations
 from hil.recorder import Recorder, make_run_dir
 from hil.scenario.schema import Scenario
+from hil.telemetry import TelemetryPublisher, ZenohOptions, open_session
 
 
 @dataclass
@@ -22,6 +23,8 @@ class RunOptions:
     realtime: bool = False
     runs_root: Path = Path("runs")
     watchdog_s: float = 1.0
+    telemetry: ZenohOptions | None = field(default_factory=ZenohOptions)  # None: no telemetry
+    telemetry_rates_hz: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -40,8 +43,11 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
     meta = {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
             "board": "emulator" if options.port is None else options.port, "command_link": options.mavlink,
             "pacing": "realtime" if options.realtime else "lockstep (realtime for a serial board)"}
-    recorder = Recorder(run_dir, scenario.model_dump(mode="json"), meta)
+    resolved = scenario.model_dump(mode="json")
+    recorder = Recorder(run_dir, resolved, meta)
     handle: BoardHandle | None = None
+    session, publisher = None, None
+    final_t_us = 0
     metrics: dict[str, Any] = {}
     failures: list[str] = []
     board_text = "not connected"
@@ -58,10 +64,21 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
         except KeyboardInterrupt:
             reason, code = "interrupted (Ctrl-C) while connecting", EXIT_INTERRUPTED
         else:
-            bench = Bench(scenario, handle, options.realtime, [recorder.record, *(sinks or [])], progress,
-                          on_event=recorder.event)
+            all_sinks: list[Sink] = [recorder.record, *(sinks or [])]
+            events = [recorder.event]
+            if options.telemetry is not None:
+                session = open_session(options.telemetry)
+                publisher = TelemetryPublisher(session, run_dir.name, {"run_id": run_dir.name, **meta,
+                                                                        "scenario": resolved},
+                                               {**scenario.telemetry.rates_hz, **options.telemetry_rates_hz},
+                                               lambda: handle.session.link.counters)  # type: ignore[union-attr]
+                all_sinks.append(publisher)
+                events.append(publisher.event)
+            bench = Bench(scenario, handle, options.realtime, all_sinks, progress,
+                          on_event=lambda t_us, text: [emit(t_us, text) for emit in events])
             result = bench.run()
             reason, code, metrics = result.reason, result.exit_code, result.metrics
+            final_t_us = bench.t_us
             if code == EXIT_OK:
                 failures = check_expectations(scenario.expect, metrics)
                 code = EXIT_EXPECT_FAILED if failures else EXIT_OK
@@ -69,7 +86,13 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
         if handle is not None:
             handle.close()
         summary = format_summary(scenario, board_text, reason, code, metrics, failures)
-        recorder.finish({"exit_code": code, "reason": reason, "expectations_failed": failures, **metrics}, summary)
+        full_metrics = {"exit_code": code, "reason": reason, "expectations_failed": failures, **metrics}
+        recorder.finish(full_metrics, summary)
+        if publisher is not None:
+            publisher.summary(final_t_us, full_metrics, summary)
+            publisher.close()
+        if session is not None:
+            session.close()
     return RunOutcome(code, reason, run_dir, metrics, failures, summary)
 
 

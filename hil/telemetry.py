@@ -10,6 +10,7 @@ channel, in samples per second of simulated time (equal to wall time when paced 
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +27,7 @@ DEFAULT_RATES_HZ: dict[str, float] = {
     "sensors/mag": 10.0, "actuators": 50.0, "environment": 10.0, "board": 50.0, "timing": 10.0, "events": 1e9,
 }
 KEY_PREFIX = "hil"
+FLUSH_S = 0.2
 
 
 @dataclass
@@ -66,8 +68,11 @@ class TelemetryPublisher:
         self._publishers = {
             c: session.declare_publisher(f"{self.prefix}/{c}", encoding=json_encoding,
                                          congestion_control=zenoh.CongestionControl.DROP)
-            for c in (*CHANNELS, "summary")
+            for c in CHANNELS
         }
+        # the summary is sent once, after the loop: it may wait for the network rather than be dropped
+        self._publishers["summary"] = session.declare_publisher(f"{self.prefix}/summary", encoding=json_encoding,
+                                                                congestion_control=zenoh.CongestionControl.BLOCK)
         meta_payload = orjson.dumps(meta, default=str)
         self._queryable = session.declare_queryable(
             f"{self.prefix}/meta", lambda query: query.reply(f"{self.prefix}/meta", meta_payload, encoding=json_encoding))
@@ -99,7 +104,9 @@ class TelemetryPublisher:
         self._put("summary", {"t_us": t_us, "metrics": metrics, "text": text})
 
     def close(self) -> None:
-        """Undeclare everything before the session closes (zenoh-python can hang on exit otherwise)."""
+        """Undeclare everything before the session closes (zenoh-python can hang on exit otherwise).
+        The pause lets the last samples (summary, final events) leave before the token goes."""
+        time.sleep(FLUSH_S)
         self._token.undeclare()
         self._queryable.undeclare()
         for publisher in self._publishers.values():

@@ -1,0 +1,65 @@
+"""Real-time factor of the same run with no subscriber, and with a subscriber (another process) that
+sleeps 50 ms in its callback for every sample: publishing must not slow the loop (congestion: drop)."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SLOW_SUBSCRIBER = """
+import sys, time
+sys.path.insert(0, {root!r})
+from hil.telemetry import ZenohOptions, subscribe
+received = []
+def slow(key, sample):
+    received.append(key)
+    time.sleep(0.05)
+sub = subscribe("hil/**", slow, ZenohOptions(listen=[{endpoint!r}], multicast_scouting=False))
+try:
+    time.sleep(600)
+except KeyboardInterrupt:
+    pass
+sub.close()
+print(len(received))
+"""
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def run(scenario: Path, endpoint: str | None) -> float:
+    with tempfile.TemporaryDirectory() as runs:
+        args = [sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", runs]
+        args += ["--zenoh-connect", endpoint] if endpoint else ["--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"]
+        subprocess.run(args, check=True, capture_output=True, cwd=ROOT)
+        metrics = json.loads((next(Path(runs).iterdir()) / "metrics.json").read_text())
+        return metrics["timing"]["realtime_factor"]
+
+
+def main() -> None:
+    scenario = ROOT / "scenarios" / "hover.yaml"
+    alone = run(scenario, None)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    subscriber = subprocess.Popen([sys.executable, "-c", SLOW_SUBSCRIBER.format(root=str(ROOT), endpoint=endpoint)],
+                                  stdout=subprocess.PIPE, text=True)
+    time.sleep(2.0)
+    loaded = run(scenario, endpoint)
+    subscriber.send_signal(2)
+    received = subscriber.communicate(timeout=30)[0].strip()
+    print("telemetry load, scenarios/hover.yaml on the emulator (lockstep)")
+    print(f"  no subscriber                         : {alone:5.2f}x real time")
+    print(f"  a subscriber sleeping 50 ms per sample: {loaded:5.2f}x real time "
+          f"(it took {received} samples; ratio {loaded / alone:.2f})")
+
+
+if __name__ == "__main__":
+    main()

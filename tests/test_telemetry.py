@@ -1,0 +1,172 @@
+"""Zenoh telemetry on loopback (multicast scouting off): rates, ordering, meta, hil watch, clean exits."""
+
+from __future__ import annotations
+
+import json
+import os
+import pty
+import select
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import pytest
+
+from hil.telemetry import DEFAULT_RATES_HZ, ZenohOptions, fetch_meta, open_session
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def scenario_file(tmp_path: Path, duration: float = 4.0, altitude: float = 3.0) -> Path:
+    path = tmp_path / "t.yaml"
+    path.write_text(f"name: tele\nduration_s: {duration}\nseed: 2\nreference: {{type: hover, altitude_m: {altitude}}}\n"
+                    "end: disarm\ntelemetry: {rates_hz: {state: 100, sensors/imu: 25}}\n")
+    return path
+
+
+def bench(scenario: Path, runs: Path, endpoint: str, connect: bool = False) -> subprocess.Popen[str]:
+    return subprocess.Popen([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
+                             "--zenoh-connect" if connect else "--zenoh-listen", endpoint],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+
+
+def test_a_subscriber_in_another_process_gets_every_channel_at_its_rate(tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    lines_path = tmp_path / "echo.jsonl"
+    sink = open(lines_path, "wb")  # a file, not a pipe: a full pipe would block the subscriber
+    echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
+                            stdout=sink, stderr=subprocess.DEVNULL, cwd=ROOT)
+    time.sleep(2.0)  # listening: the bench connects to it when it opens its session
+    run = bench(scenario_file(tmp_path, duration=20.0), tmp_path / "runs", endpoint, connect=True)
+    assert run.wait(300) == 0, run.stderr.read()
+    time.sleep(1.0)
+    echo.send_signal(signal.SIGINT)
+    assert echo.wait(10) == 0
+    sink.close()
+    samples: dict[str, list[int]] = defaultdict(list)
+    for line in lines_path.read_text().splitlines():
+        record = json.loads(line)
+        samples[record["key"].split("/", 2)[2]].append(record["sample"]["t_us"])
+    assert set(samples) >= {"state", "reference", "sensors/imu", "sensors/gps", "sensors/baro", "sensors/mag",
+                            "actuators", "environment", "board", "timing", "events", "summary"}
+    for channel, stamps in samples.items():
+        assert stamps == sorted(stamps), f"{channel}: t_us not monotonic"
+    # the subscriber connects a moment after the bench starts publishing: measure over what it saw
+    rates = {"state": 100.0, "sensors/imu": 25.0, "actuators": DEFAULT_RATES_HZ["actuators"],
+             "environment": DEFAULT_RATES_HZ["environment"], "timing": DEFAULT_RATES_HZ["timing"],
+             "sensors/baro": DEFAULT_RATES_HZ["sensors/baro"], "sensors/mag": DEFAULT_RATES_HZ["sensors/mag"],
+             "sensors/gps": 5.0}  # px4_sitl GPS delivers 5 fixes/s, under the 10 Hz channel rate
+    for channel, hz in rates.items():
+        stamps = samples[channel]
+        span_s = (stamps[-1] - stamps[0]) / 1e6
+        assert (len(stamps) - 1) / span_s == pytest.approx(hz, rel=0.10), channel
+
+
+def test_meta_queryable_answers_late_joiners(tmp_path):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    run = bench(scenario_file(tmp_path, duration=60.0), tmp_path / "runs", endpoint)
+    session = open_session(ZenohOptions(connect=[endpoint], multicast_scouting=False))
+    try:
+        deadline = time.monotonic() + 60
+        run_ids: list[str] = []
+        token = session.liveliness().declare_subscriber("hil/*", lambda s: run_ids.append(str(s.key_expr)[4:]),
+                                                         history=True)
+        while not run_ids and time.monotonic() < deadline:
+            time.sleep(0.2)
+        meta = fetch_meta(session, run_ids[0])
+        token.undeclare()
+        assert meta is not None and meta["run_id"] == run_ids[0] and meta["scenario"]["name"] == "tele"
+        assert meta["scenario"]["duration_s"] == 60.0 and meta["seed"] == 2
+    finally:
+        session.close()
+        run.send_signal(signal.SIGINT)
+        run.wait(30)
+
+
+def read_screen(fd: int, seconds: float) -> bytes:
+    out = b""
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([fd], [], [], 0.1)
+        if ready:
+            try:
+                out += os.read(fd, 65536)
+            except OSError:
+                break
+    return out
+
+
+def watch_on_a_terminal(endpoint: str) -> tuple[subprocess.Popen[bytes], int]:
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-connect", endpoint],
+                            stdin=slave, stdout=slave, stderr=slave, cwd=ROOT,
+                            env={**os.environ, "COLUMNS": "120", "LINES": "40", "TERM": "xterm"})
+    os.close(slave)
+    return proc, master
+
+
+@pytest.mark.parametrize("watch_first", [True, False], ids=["watch-before-run", "watch-after-start"])
+def test_hil_watch_shows_the_run_on_a_terminal_and_exits_with_it(tmp_path, watch_first):
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    if watch_first:
+        # the watcher must be reachable before the bench exists: it listens, the bench connects
+        proc, master = watch_on_a_terminal_listening(endpoint)
+        run = bench(scenario_file(tmp_path, 30.0), tmp_path / "runs", endpoint, connect=True)
+    else:
+        run = bench(scenario_file(tmp_path, 30.0), tmp_path / "runs", endpoint)
+        time.sleep(2.5)  # the run is flying (it lasts ~8 s of wall time)
+        proc, master = watch_on_a_terminal(endpoint)
+    screen = b""
+    ended = None
+    while proc.poll() is None:  # keep reading the terminal, as a terminal does
+        screen += read_screen(master, 0.1)
+        if ended is None and run.poll() is not None:
+            ended = time.monotonic()
+        assert ended is None or time.monotonic() - ended < 2.0, "the watcher must leave with the run"
+    screen += read_screen(master, 0.3)
+    text = screen.decode(errors="replace")
+    assert run.wait(5) == 0 and proc.returncode == 0
+    assert "hil run" in text and "position (m)" in text and "reference (m)" in text and "real-time factor" in text
+    assert "phase" in text and "mission" in text and "result: PASS" in text
+    os.close(master)
+
+
+def watch_on_a_terminal_listening(endpoint: str) -> tuple[subprocess.Popen[bytes], int]:
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-listen", endpoint],
+                            stdin=slave, stdout=slave, stderr=slave, cwd=ROOT,
+                            env={**os.environ, "COLUMNS": "120", "LINES": "40", "TERM": "xterm"})
+    os.close(slave)
+    time.sleep(2.0)  # listening
+    return proc, master
+
+
+def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
+    for i in range(20):
+        endpoint = f"tcp/127.0.0.1:{free_port()}"
+        ctrl_c = i % 2 == 1
+        run = bench(scenario_file(tmp_path, duration=60.0 if ctrl_c else 0.5, altitude=1.0), tmp_path / f"r{i}",
+                    endpoint)
+        watcher = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-connect", endpoint],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+        if ctrl_c:
+            time.sleep(4.0)
+            run.send_signal(signal.SIGINT)
+            watcher.send_signal(signal.SIGINT)
+            stopped = time.monotonic()
+            assert run.wait(10) == 130 and watcher.wait(10) == 130
+        else:
+            assert run.wait(120) == 0
+            stopped = time.monotonic()
+            watcher.wait(10)
+        assert time.monotonic() - stopped < 2.0, f"iteration {i}"
