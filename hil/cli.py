@@ -124,6 +124,39 @@ def _cmd_echo(args: argparse.Namespace) -> int:
     return echo(args.key_expr, _zenoh_options(args))
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from hil.report import report
+
+    run_dir = Path(args.run_dir)
+    if not (run_dir / "recording.mcap").is_file():
+        print(f"hil report: {run_dir}: not a run directory (no recording.mcap)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    for figure in report(run_dir):
+        print(figure)
+    return EXIT_OK
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from hil.compare import compare
+
+    scenarios, bad = _load([args.scenario])
+    if bad:
+        return EXIT_BAD_INPUT
+    controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
+    unknown = sorted(set(controllers) - {"smarc", "smpid", "backstepping"})
+    if unknown:
+        print(f"hil compare: unknown controller(s) {', '.join(unknown)}: expected smarc, smpid, backstepping",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+    scenario = scenarios[0]
+    seeds = [scenario.seed + i for i in range(args.seeds)]
+    out = Path(args.out) if args.out else Path("runs") / f"compare-{scenario.name}"
+    result, markdown = compare(Path(args.scenario), scenario, controllers, seeds, args.jobs, out)
+    print(markdown, end="")
+    print(f"written: {out / 'comparison.md'}, {out / 'comparison.json'}, plots under {out}")
+    return EXIT_OK if all(r["exit_code"] in (0, 1) for r in result["runs"]) else EXIT_BOARD
+
+
 def _cmd_ports(args: argparse.Namespace) -> int:
     from serial.tools import list_ports
 
@@ -189,6 +222,16 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate scenario files without running them")
     check.add_argument("files", nargs="+")
     check.set_defaults(func=_cmd_check)
+    report = sub.add_parser("report", help="PNG figures of a run (cf. the paper's Figures 5-10)")
+    report.add_argument("run_dir")
+    report.set_defaults(func=_cmd_report)
+    compare = sub.add_parser("compare", help="fly a scenario with several controllers and compare (Tables 1-2)")
+    compare.add_argument("scenario")
+    compare.add_argument("--controllers", default="smarc,smpid,backstepping")
+    compare.add_argument("--seeds", type=int, default=1, help="seeds per controller, from the scenario's seed up")
+    compare.add_argument("--jobs", type=int, default=2, help="flights in parallel (each is two processes)")
+    compare.add_argument("--out", help="output directory (default runs/compare-<scenario>)")
+    compare.set_defaults(func=_cmd_compare)
     ports = sub.add_parser("ports", help="list serial ports (where a Pixhawk shows up)")
     ports.set_defaults(func=_cmd_ports)
     emulate = sub.add_parser("emulate", add_help=False,

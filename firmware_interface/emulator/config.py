@@ -67,9 +67,11 @@ class SmpidGains(_Model):
     c2: float = 8.0
     lambda2: float = 60.0
     epsilon_att: float = 0.3
-    kp_yaw: float = 16.0
-    kd_yaw: float = 8.0
-    ki_yaw: float = 2.0
+    # yaw PID per unit of nominal Iz: ω_n = 20 rad/s, ζ = 0.9, integral at ω_n², comparable to the
+    # other attitude loops (the paper gives no gains); the inspection preset softens it for its rotors
+    kp_yaw: float = 400.0
+    kd_yaw: float = 36.0
+    ki_yaw: float = 400.0
     differentiator_bandwidth: float = 100.0
     max_tilt: float = math.radians(35)
 
@@ -124,7 +126,8 @@ _PAPER_VEHICLE = dict(mass=1.0, Ixx=0.121, Iyy=0.121, Izz=0.151, arm_length=0.5,
 _INSPECTION_GAINS = {
     "smarc": {"c2": 0.4, "epsilon": 0.02, "lambda2": 14.0, "differentiator_bandwidth": 40.0,
               "adaptation_filter_s": 0.2, "adaptation_deadzone": 0.05, "mass_min": 0.5, "mass_max": 2.5},
-    "smpid": {"c2": 0.4, "epsilon_att": 0.02, "lambda2": 14.0, "differentiator_bandwidth": 40.0},
+    "smpid": {"c2": 0.4, "epsilon_att": 0.02, "lambda2": 14.0, "differentiator_bandwidth": 40.0,
+              "kp_yaw": 16.0, "kd_yaw": 8.0, "ki_yaw": 2.0},
     "backstepping": {"k3": 10.0, "k4": 14.0, "differentiator_bandwidth": 40.0},
 }
 PRESETS: dict[str, dict[str, Any]] = {

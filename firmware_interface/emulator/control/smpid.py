@@ -64,7 +64,7 @@ class SlidingModePid:
         # yaw is fully actuated: replace the sliding mode yaw torque by a PID on the yaw error
         e_yaw = angle_error(state.eta, eta_cmd)[2]
         if adapt:
-            self.yaw_integral = float(np.clip(self.yaw_integral + e_yaw * dt, -1.0, 1.0))
+            self.yaw_integral = float(np.clip(self.yaw_integral + e_yaw * dt, -0.5, 0.5))
         iz = self.nominal.inertia[2]
         torque[2] = iz * (-k.kp_yaw * e_yaw - k.kd_yaw * state.rates_frd[2] - k.ki_yaw * self.yaw_integral)
         internals = {"s_x": self.s_xy[0], "s_y": self.s_xy[1], "z_integral": self.z_integral,

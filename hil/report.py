@@ -1,0 +1,132 @@
+"""`hil report RUN_DIR`: PNG figures like the paper's Figures 5–10, and overlays for comparisons.
+
+matplotlib is imported here only (never in the loop), with the non-interactive Agg backend.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from hil.rundata import RunData, load_run  # noqa: E402
+
+AXES = ("x (north)", "y (east)", "z (down)")
+ANGLES = ("roll γ", "pitch θ", "yaw ψ")
+
+
+def _save(fig: plt.Figure, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def figure_trajectory(data: RunData, out: Path) -> Path:
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    ax.plot(data.ref[:, 0], data.ref[:, 1], -data.ref[:, 2], "b-", label="reference")
+    ax.plot(data.pos[:, 0], data.pos[:, 1], -data.pos[:, 2], "r--", label="flown")
+    ax.set_xlabel("north (m)")
+    ax.set_ylabel("east (m)")
+    ax.set_zlabel("height (m)")
+    ax.set_title(f"{data.name}, {data.controller}: trajectory (cf. Fig. 5)")
+    ax.legend()
+    return _save(fig, out / "fig5_trajectory.png")
+
+
+def figure_errors(data: RunData, out: Path) -> Path:
+    fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
+    for i, ax in enumerate(axes):
+        ax.plot(data.t, data.error[:, i], "r-")
+        ax.set_ylabel(f"e {AXES[i]} (m)")
+        ax.grid(True)
+    axes[0].set_title(f"{data.name}, {data.controller}: position error (cf. Fig. 6)")
+    axes[-1].set_xlabel("mission time (s)")
+    return _save(fig, out / "fig6_position_error.png")
+
+
+def figure_attitude(data: RunData, out: Path) -> Path:
+    fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
+    for i, ax in enumerate(axes):
+        if len(data.cmd_t):
+            ax.plot(data.cmd_t, np.degrees(data.cmd_rpy[:, i]), "b-", label="commanded")
+        ax.plot(data.t, np.degrees(data.rpy[:, i]), "r--", label="flown")
+        ax.set_ylabel(f"{ANGLES[i]} (deg)")
+        ax.grid(True)
+    axes[0].legend()
+    axes[0].set_title(f"{data.name}, {data.controller}: attitude (cf. Fig. 7)")
+    axes[-1].set_xlabel("mission time (s)")
+    return _save(fig, out / "fig7_attitude.png")
+
+
+def figure_thrust(data: RunData, out: Path) -> Path | None:
+    if "thrust_n" not in data.estimates:
+        return None
+    fig, ax = plt.subplots(figsize=(7, 3))
+    ax.plot(data.est_t, data.estimates["thrust_n"], "r-", label="u1 (board)")
+    ax.plot(data.t, data.mass * 9.80665, "b--", label="weight m·g")
+    ax.set_xlabel("mission time (s)")
+    ax.set_ylabel("thrust (N)")
+    ax.set_title(f"{data.name}, {data.controller}: total thrust u1 (cf. Fig. 8)")
+    ax.legend()
+    ax.grid(True)
+    return _save(fig, out / "fig8_thrust.png")
+
+
+def figure_mass(data: RunData, out: Path) -> Path | None:
+    if "m_hat" not in data.estimates:
+        return None
+    fig, ax = plt.subplots(figsize=(7, 3))
+    ax.plot(data.t, data.mass, "b-", label="true mass")
+    ax.plot(data.est_t, data.estimates["m_hat"], "r--", label="m̂")
+    ax.set_xlabel("mission time (s)")
+    ax.set_ylabel("mass (kg)")
+    ax.set_title(f"{data.name}, {data.controller}: mass estimate (cf. Fig. 9)")
+    ax.legend()
+    ax.grid(True)
+    return _save(fig, out / "fig9_mass_estimate.png")
+
+
+def figure_disturbance(data: RunData, out: Path) -> Path | None:
+    keys = ("d_hat_x", "d_hat_y", "d_hat_z")
+    if not all(k in data.estimates for k in keys):
+        return None
+    fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
+    for i, ax in enumerate(axes):
+        ax.plot(data.t, data.force[:, i], "b-", label="applied d_s")
+        ax.plot(data.est_t, data.estimates[keys[i]], "r--", label="d̂_s")
+        ax.set_ylabel(f"{AXES[i]} (N)")
+        ax.grid(True)
+    axes[0].legend()
+    axes[0].set_title(f"{data.name}, {data.controller}: disturbance estimate (cf. Fig. 10)")
+    axes[-1].set_xlabel("mission time (s)")
+    return _save(fig, out / "fig10_disturbance_estimate.png")
+
+
+def report(run_dir: Path) -> list[Path]:
+    data = load_run(run_dir)
+    out = run_dir / "report"
+    out.mkdir(exist_ok=True)
+    figures = [figure_trajectory(data, out), figure_errors(data, out), figure_attitude(data, out),
+               figure_thrust(data, out), figure_mass(data, out), figure_disturbance(data, out)]
+    return [f for f in figures if f is not None]
+
+
+def overlay_errors(runs: dict[str, RunData], out: Path, settle_s: float) -> Path:
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    for label, data in runs.items():
+        for i, ax in enumerate(axes):
+            ax.plot(data.t, data.error[:, i], label=label, linewidth=1)
+    for i, ax in enumerate(axes):
+        ax.set_ylabel(f"e {AXES[i]} (m)")
+        ax.axvline(settle_s, color="grey", linestyle=":")
+        ax.grid(True)
+    axes[0].legend()
+    axes[0].set_title("position error by controller")
+    axes[-1].set_xlabel("mission time (s)")
+    return _save(fig, out / "overlay_position_error.png")
