@@ -77,7 +77,9 @@ def _markdown(scenario: Scenario, rows: dict[str, dict[str, Any]], settle_s: flo
             if a:
                 lines.append(f"| {name} | " + " | ".join(f"[{a[k]['min']:+.2f}, {a[k]['max']:+.2f}]"
                                                        for k in ("roll", "pitch", "yaw")) + " |")
-    lines += ["", "| controller | m̂ error at the end of each payload window (%) | z recovery after each mass step (s) |"
+    lines += ["", "z recovery: seconds after a mass step until \\|e_z\\| is back for good inside max(0.05 m, 3 × its "
+              "RMS over the 2 s before the step).", "",
+              "| controller | m̂ error at the end of each payload window (%) | z recovery after each mass step (s) |"
               " real-time factor |", "| --- | --- | --- | --- |"]
     for name, row in rows.items():
         mass = ", ".join(f"{e:+.1f}" for e in row.get("mass_estimate_error_pct", [])) or "– (no estimate)"

@@ -88,18 +88,23 @@ def load_run(run_dir: Path) -> RunData:
     )
 
 
-def recovery_times(data: RunData, step_times: list[float], threshold_m: float = 0.05) -> list[float | None]:
-    """Seconds after each payload step until |e_z| is back under `threshold_m` for good (within its window)."""
+def recovery_times(data: RunData, step_times: list[float], floor_m: float = 0.05,
+                   before_s: float = 2.0) -> list[float | None]:
+    """Seconds after each payload step until |e_z| is back inside its pre-step band for good (within
+    the step's window). The band is max(floor_m, 3 × RMS of e_z over the `before_s` before the step),
+    so noisy sensors do not make every recovery look endless."""
     out: list[float | None] = []
     bounds = [*step_times, float(data.t[-1]) + 1e-9]
     for start, end in zip(bounds, bounds[1:]):
+        before = (data.t >= start - before_s) & (data.t < start)
+        band = max(floor_m, 3 * float(np.sqrt(np.mean(data.error[before, 2] ** 2)))) if before.any() else floor_m
         window = (data.t >= start) & (data.t < end)
         e = np.abs(data.error[window, 2])
-        outside = np.flatnonzero(e >= threshold_m)
+        outside = np.flatnonzero(e >= band)
         if len(outside) == 0:
             out.append(0.0)
         elif outside[-1] == len(e) - 1:
-            out.append(None)  # never recovered in this window
+            out.append(None)  # never back in this window
         else:
             out.append(float(data.t[window][outside[-1] + 1] - start))
     return out
