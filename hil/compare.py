@@ -78,7 +78,7 @@ def _markdown(scenario: Scenario, rows: dict[str, dict[str, Any]], settle_s: flo
                 lines.append(f"| {name} | " + " | ".join(f"[{a[k]['min']:+.2f}, {a[k]['max']:+.2f}]"
                                                        for k in ("roll", "pitch", "yaw")) + " |")
     lines += ["", "z recovery: seconds after a mass step until \\|e_z\\| is back for good inside max(0.05 m, 3 × its "
-              "RMS over the 2 s before the step).", "",
+              "RMS over the 2 s before the first step).", "",
               "| controller | m̂ error at the end of each payload window (%) | z recovery after each mass step (s) |"
               " real-time factor |", "| --- | --- | --- | --- |"]
     for name, row in rows.items():

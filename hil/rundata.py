@@ -90,14 +90,16 @@ def load_run(run_dir: Path) -> RunData:
 
 def recovery_times(data: RunData, step_times: list[float], floor_m: float = 0.05,
                    before_s: float = 2.0) -> list[float | None]:
-    """Seconds after each payload step until |e_z| is back inside its pre-step band for good (within
-    the step's window). The band is max(floor_m, 3 × RMS of e_z over the `before_s` before the step),
-    so noisy sensors do not make every recovery look endless."""
+    """Seconds after each payload step until |e_z| is back for good (within the step's window) inside the
+    band the vehicle held before the first step: max(floor_m, 3 × RMS of e_z over the `before_s` before
+    it), so noisy sensors do not make every recovery look endless."""
     out: list[float | None] = []
+    if not step_times:
+        return out
     bounds = [*step_times, float(data.t[-1]) + 1e-9]
+    before = (data.t >= step_times[0] - before_s) & (data.t < step_times[0])
+    band = max(floor_m, 3 * float(np.sqrt(np.mean(data.error[before, 2] ** 2)))) if before.any() else floor_m
     for start, end in zip(bounds, bounds[1:]):
-        before = (data.t >= start - before_s) & (data.t < start)
-        band = max(floor_m, 3 * float(np.sqrt(np.mean(data.error[before, 2] ** 2)))) if before.any() else floor_m
         window = (data.t >= start) & (data.t < end)
         e = np.abs(data.error[window, 2])
         outside = np.flatnonzero(e >= band)
