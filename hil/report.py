@@ -64,32 +64,31 @@ def figure_attitude(data: RunData, out: Path) -> Path:
     return _save(fig, out / "fig7_attitude.png")
 
 
+def _two_curves(data: RunData, out: Path, name: str, title: str, ylabel: str,
+                truth: tuple[np.ndarray, np.ndarray, str], board: tuple[np.ndarray, np.ndarray, str]) -> Path:
+    fig, ax = plt.subplots(figsize=(7, 3))
+    ax.plot(truth[0], truth[1], "b-", label=truth[2])
+    ax.plot(board[0], board[1], "r--", label=board[2])
+    ax.set_xlabel("mission time (s)")
+    ax.set_ylabel(ylabel)
+    ax.set_title(f"{data.name}, {data.controller}: {title}")
+    ax.legend()
+    ax.grid(True)
+    return _save(fig, out / name)
+
+
 def figure_thrust(data: RunData, out: Path) -> Path | None:
     if "thrust_n" not in data.estimates:
         return None
-    fig, ax = plt.subplots(figsize=(7, 3))
-    ax.plot(data.est_t, data.estimates["thrust_n"], "r-", label="u1 (board)")
-    ax.plot(data.t, data.mass * 9.80665, "b--", label="weight m·g")
-    ax.set_xlabel("mission time (s)")
-    ax.set_ylabel("thrust (N)")
-    ax.set_title(f"{data.name}, {data.controller}: total thrust u1 (cf. Fig. 8)")
-    ax.legend()
-    ax.grid(True)
-    return _save(fig, out / "fig8_thrust.png")
+    return _two_curves(data, out, "fig8_thrust.png", "total thrust u1 (cf. Fig. 8)", "thrust (N)",
+                       (data.t, data.mass * 9.80665, "weight m·g"), (data.est_t, data.estimates["thrust_n"], "u1 (board)"))
 
 
 def figure_mass(data: RunData, out: Path) -> Path | None:
     if "m_hat" not in data.estimates:
         return None
-    fig, ax = plt.subplots(figsize=(7, 3))
-    ax.plot(data.t, data.mass, "b-", label="true mass")
-    ax.plot(data.est_t, data.estimates["m_hat"], "r--", label="m̂")
-    ax.set_xlabel("mission time (s)")
-    ax.set_ylabel("mass (kg)")
-    ax.set_title(f"{data.name}, {data.controller}: mass estimate (cf. Fig. 9)")
-    ax.legend()
-    ax.grid(True)
-    return _save(fig, out / "fig9_mass_estimate.png")
+    return _two_curves(data, out, "fig9_mass_estimate.png", "mass estimate (cf. Fig. 9)", "mass (kg)",
+                       (data.t, data.mass, "true mass"), (data.est_t, data.estimates["m_hat"], "m̂"))
 
 
 def figure_disturbance(data: RunData, out: Path) -> Path | None:

@@ -106,12 +106,16 @@ def read_screen(fd: int, seconds: float) -> bytes:
     return out
 
 
-def watch_on_a_terminal(endpoint: str) -> tuple[subprocess.Popen[bytes], int]:
+def watch_on_a_terminal(endpoint: str, listen: bool = False) -> tuple[subprocess.Popen[bytes], int]:
+    """`hil watch --latest` with a real pseudo-terminal as its screen; listening, or connecting to the bench."""
     master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-connect", endpoint],
+    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest",
+                             "--zenoh-listen" if listen else "--zenoh-connect", endpoint],
                             stdin=slave, stdout=slave, stderr=slave, cwd=ROOT,
                             env={**os.environ, "COLUMNS": "120", "LINES": "40", "TERM": "xterm"})
     os.close(slave)
+    if listen:
+        time.sleep(2.0)  # listening before the bench starts
     return proc, master
 
 
@@ -120,7 +124,7 @@ def test_hil_watch_shows_the_run_on_a_terminal_and_exits_with_it(tmp_path, watch
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     if watch_first:
         # the watcher must be reachable before the bench exists: it listens, the bench connects
-        proc, master = watch_on_a_terminal_listening(endpoint)
+        proc, master = watch_on_a_terminal(endpoint, listen=True)
         run = bench(scenario_file(tmp_path, 30.0), tmp_path / "runs", endpoint, connect=True)
     else:
         run = bench(scenario_file(tmp_path, 30.0), tmp_path / "runs", endpoint)
@@ -139,16 +143,6 @@ def test_hil_watch_shows_the_run_on_a_terminal_and_exits_with_it(tmp_path, watch
     assert "hil run" in text and "position (m)" in text and "reference (m)" in text and "real-time factor" in text
     assert "phase" in text and "mission" in text and "result: PASS" in text
     os.close(master)
-
-
-def watch_on_a_terminal_listening(endpoint: str) -> tuple[subprocess.Popen[bytes], int]:
-    master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-listen", endpoint],
-                            stdin=slave, stdout=slave, stderr=slave, cwd=ROOT,
-                            env={**os.environ, "COLUMNS": "120", "LINES": "40", "TERM": "xterm"})
-    os.close(slave)
-    time.sleep(2.0)  # listening
-    return proc, master
 
 
 def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
