@@ -226,3 +226,38 @@ def test_profile_overrides_are_validated():
         SensorSuite(SensorsConfig(imu=SensorChoice(profile="mpu6050", accel_noise_densty=1)), Home(), 250,
                     np.random.default_rng(0))
     assert isinstance(run_suite(0, 1)[0][0], SensorReadings)
+
+
+def test_accelerometer_reads_gravity_rotated_into_the_tilted_body_plus_acceleration(fmu_path):
+    """f = Rᵀ(a − g·e3), R (body FRD -> NED) written out here from the plant's own quaternion."""
+    from plant_fmu import Plant
+
+    with Plant({"init_pos_d": -100.0}, fmu_path) as plant:
+        u = np.zeros(len(plant.INPUT_NAMES))
+        u[[plant.input_index[f"motor_cmd_{i}"] for i in range(1, 5)]] = 0.55
+        u[[plant.input_index[f"motor_health_{i}"] for i in range(1, 5)]] = 1.0
+        u[plant.input_index["tau_dist_x"]] = 0.015
+        u[plant.input_index["tau_dist_z"]] = 0.01
+        plant.set_inputs(u)
+        for _ in range(150):
+            out = plant.step(0.004)
+        o = plant.output_index
+        w, x, y, z = (out[o[n]] for n in ("q_w", "q_x", "q_y", "q_z"))
+        rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+        acc = np.array([out[o[n]] for n in ("acc_n", "acc_e", "acc_d")])
+        expected = rot.T @ (acc - np.array([0.0, 0.0, G]))
+        force = np.array([out[o[n]] for n in ("specific_force_x", "specific_force_y", "specific_force_z")])
+        assert abs(out[o["roll"]]) > 0.2  # clearly tilted (> 11°), and accelerating
+        accel, _ = Imu(ImuConfig(), 250.0, np.random.default_rng(0)).sample(force, np.zeros(3))
+        assert accel == pytest.approx(tuple(expected), abs=1e-9)
+
+
+def test_tilted_at_rest_the_accelerometer_reads_g_rotated():
+    """Rolled 30° right and at rest: f = Rᵀ(0, 0, -g) = (0, -g sin 30°, -g cos 30°), by hand."""
+    q = quat_from_euler(math.radians(30), 0.0, 0.0)
+    w, x, y, z = q
+    rot_t_e3 = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])  # Rᵀ e3 (third row of R)
+    accel, _ = Imu(ImuConfig(), 250.0, np.random.default_rng(0)).sample(-G * rot_t_e3, np.zeros(3))
+    assert accel == pytest.approx((0.0, -G * 0.5, -G * math.sqrt(3) / 2), abs=1e-12)
