@@ -9,6 +9,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -39,13 +41,19 @@ def echo_board(port: str) -> None:
         return
 
 
-def start_echo() -> tuple[Link, subprocess.Popen[bytes]]:
+@contextmanager
+def echo_link() -> Iterator[Link]:
+    """The bench's end of a pty whose other end is the echo board, in its own process."""
     pair = open_pty_pair()
     proc = subprocess.Popen([sys.executable, __file__, "--echo", pair.slave_path])
     link = Link(pair.master)
     time.sleep(1.0)
     pair.release_slave()
-    return link, proc
+    try:
+        yield link
+    finally:
+        link.close()
+        proc.wait(5)
 
 
 def wait_reply(link: Link, t_us: int) -> None:
@@ -56,26 +64,21 @@ def wait_reply(link: Link, t_us: int) -> None:
 
 
 def ping_pong_floor() -> float:
-    link, proc = start_echo()
     encoder = FrameEncoder(1, 51)
-    readings = codec.SensorReadings(0, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0))
-    start = time.perf_counter()
-    for k in range(1, STEPS + 1):
-        link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(
-            codec.SensorReadings(4000 * k, readings.accel_frd, readings.gyro_frd))))
-        wait_reply(link, 4000 * k)
-    elapsed = (time.perf_counter() - start) / STEPS
-    link.close()
-    proc.wait(5)
-    return elapsed
+    with echo_link() as link:
+        start = time.perf_counter()
+        for k in range(1, STEPS + 1):
+            link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(
+                codec.SensorReadings(4000 * k, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0)))))
+            wait_reply(link, 4000 * k)
+        return (time.perf_counter() - start) / STEPS
 
 
 def bench_step_floor() -> float:
     """Plant + sensors + codec + pty round trip to the echo board, per step."""
-    link, proc = start_echo()
     encoder = FrameEncoder(1, 51)
     suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
-    with Plant({"init_pos_d": -10.0}) as plant:
+    with echo_link() as link, Plant({"init_pos_d": -10.0}) as plant:
         o = plant.output_index
         pos, vel = [o[n] for n in ("pos_n", "pos_e", "pos_d")], [o[n] for n in ("vel_n", "vel_e", "vel_d")]
         quat, rates = [o[n] for n in ("q_w", "q_x", "q_y", "q_z")], [o[n] for n in ("rate_x", "rate_y", "rate_z")]
@@ -90,10 +93,7 @@ def bench_step_floor() -> float:
                 link.send_frame(encoder.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps)))
             link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings)))
             wait_reply(link, 4000 * k)
-        elapsed = (time.perf_counter() - start) / STEPS
-    link.close()
-    proc.wait(5)
-    return elapsed
+        return (time.perf_counter() - start) / STEPS
 
 
 def full_run() -> dict:

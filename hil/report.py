@@ -50,18 +50,25 @@ def figure_errors(data: RunData, out: Path) -> Path:
     return _save(fig, out / "fig6_position_error.png")
 
 
-def figure_attitude(data: RunData, out: Path) -> Path:
+def _three_rows(data: RunData, out: Path, name: str, title: str, ylabels: list[str],
+                reference: tuple[np.ndarray, np.ndarray, str], flown: tuple[np.ndarray, np.ndarray, str]) -> Path:
+    """Three stacked axes, a reference (blue) against what was flown or estimated (red dashed)."""
     fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
     for i, ax in enumerate(axes):
-        if len(data.cmd_t):
-            ax.plot(data.cmd_t, np.degrees(data.cmd_rpy[:, i]), "b-", label="commanded")
-        ax.plot(data.t, np.degrees(data.rpy[:, i]), "r--", label="flown")
-        ax.set_ylabel(f"{ANGLES[i]} (deg)")
+        if len(reference[0]):
+            ax.plot(reference[0], reference[1][:, i], "b-", label=reference[2])
+        ax.plot(flown[0], flown[1][:, i], "r--", label=flown[2])
+        ax.set_ylabel(ylabels[i])
         ax.grid(True)
     axes[0].legend()
-    axes[0].set_title(f"{data.name}, {data.controller}: attitude (cf. Fig. 7)")
+    axes[0].set_title(f"{data.name}, {data.controller}: {title}")
     axes[-1].set_xlabel("mission time (s)")
-    return _save(fig, out / "fig7_attitude.png")
+    return _save(fig, out / name)
+
+
+def figure_attitude(data: RunData, out: Path) -> Path:
+    return _three_rows(data, out, "fig7_attitude.png", "attitude (cf. Fig. 7)", [f"{a} (deg)" for a in ANGLES],
+                       (data.cmd_t, np.degrees(data.cmd_rpy), "commanded"), (data.t, np.degrees(data.rpy), "flown"))
 
 
 def _two_curves(data: RunData, out: Path, name: str, title: str, ylabel: str,
@@ -95,16 +102,9 @@ def figure_disturbance(data: RunData, out: Path) -> Path | None:
     keys = ("d_hat_x", "d_hat_y", "d_hat_z")
     if not all(k in data.estimates for k in keys):
         return None
-    fig, axes = plt.subplots(3, 1, figsize=(7, 6), sharex=True)
-    for i, ax in enumerate(axes):
-        ax.plot(data.t, data.force[:, i], "b-", label="applied d_s")
-        ax.plot(data.est_t, data.estimates[keys[i]], "r--", label="d̂_s")
-        ax.set_ylabel(f"{AXES[i]} (N)")
-        ax.grid(True)
-    axes[0].legend()
-    axes[0].set_title(f"{data.name}, {data.controller}: disturbance estimate (cf. Fig. 10)")
-    axes[-1].set_xlabel("mission time (s)")
-    return _save(fig, out / "fig10_disturbance_estimate.png")
+    estimate = np.column_stack([data.estimates[k] for k in keys])
+    return _three_rows(data, out, "fig10_disturbance_estimate.png", "disturbance estimate (cf. Fig. 10)",
+                       [f"{a} (N)" for a in AXES], (data.t, data.force, "applied d_s"), (data.est_t, estimate, "d̂_s"))
 
 
 def report(run_dir: Path) -> list[Path]:
