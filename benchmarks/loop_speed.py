@@ -1,6 +1,7 @@
 """Real-time factor of `hil run scenarios/gust.yaml` (60 s simulated, lockstep, SMARC on the emulator)
-and where each step's time goes, next to two floors: a bare ping-pong over the pty with a board that
-echoes one frame per HIL_SENSOR, and the whole bench step with that echo board (no flight code)."""
+and where each step's time goes, next to three floors: the kernel's pty round trip (C on both ends),
+a ping-pong over the pty with a Python board that echoes one frame per HIL_SENSOR, and the whole
+bench step with that echo board (no flight code)."""
 
 from __future__ import annotations
 
@@ -63,6 +64,15 @@ def wait_reply(link: Link, t_us: int) -> None:
                 return
 
 
+def kernel_floor() -> float:
+    """The pty round trip with no Python on either end (benchmarks/pty_round_trip.c, built with gcc)."""
+    with tempfile.TemporaryDirectory() as build:
+        exe = Path(build) / "pty_round_trip"
+        subprocess.run(["gcc", "-O2", "-o", str(exe), str(ROOT / "benchmarks" / "pty_round_trip.c")], check=True)
+        result = subprocess.run([str(exe), str(STEPS)], check=True, capture_output=True, text=True)
+        return float(result.stdout) * 1e-6
+
+
 def ping_pong_floor() -> float:
     encoder = FrameEncoder(1, 51)
     with echo_link() as link:
@@ -105,12 +115,13 @@ def full_run() -> dict:
 
 
 def main() -> None:
-    ping = ping_pong_floor()
-    floor = bench_step_floor()
+    floors = {"kernel pty round trip (C on both ends)": kernel_floor(),
+              "pty ping-pong with a Python echo board": ping_pong_floor(),
+              "bench step (plant, sensors, codec) + echo": bench_step_floor()}
     timing = full_run()
     print("loop speed, 250 Hz bench steps (4 ms of simulated time each)")
-    print(f"  floor: pty ping-pong with an echo board      {ping * 1e6:7.1f} us/step  -> {0.004 / ping:5.1f}x real time")
-    print(f"  floor: bench step (plant, sensors, codec) + echo {floor * 1e6:5.1f} us/step  -> {0.004 / floor:5.1f}x real time")
+    for label, seconds in floors.items():
+        print(f"  floor: {label:42s} {seconds * 1e6:6.1f} us/step -> {0.004 / seconds:6.1f}x real time")
     print(f"  gust.yaml, SMARC on the emulator: {timing['sim_s']:.1f} s simulated in {timing['wall_s']:.1f} s "
           f"-> {timing['realtime_factor']:.2f}x real time")
     print(f"  sensor -> actuator round trip: p50 {timing['round_trip_us']['p50']:.0f} us, "

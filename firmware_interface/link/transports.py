@@ -33,6 +33,9 @@ class Transport(Protocol):
 class FdTransport:
     """A raw file descriptor, e.g. the master side of a pty pair the bench created."""
 
+    lost_reason = "the other end of the pty closed"
+    write_stall_s = 1.0  # a peer that takes nothing for this long is gone (a full pty or a hung USB CDC port)
+
     def __init__(self, fd: int, name: str) -> None:
         self.fd = fd
         self.name = name
@@ -48,7 +51,7 @@ class FdTransport:
             return b""
         except OSError as exc:
             if exc.errno == errno.EIO:
-                raise LinkLost(f"{self.name}: the other end of the pty closed") from exc
+                raise LinkLost(f"{self.name}: {self.lost_reason}") from exc
             raise LinkLost(f"{self.name}: {exc.strerror}") from exc
         if not data:
             raise LinkLost(f"{self.name}: end of stream")
@@ -60,7 +63,9 @@ class FdTransport:
             try:
                 written = os.write(self.fd, view)
             except BlockingIOError:
-                select.select([], [self.fd], [], 0.1)
+                _, writable, _ = select.select([], [self.fd], [], self.write_stall_s)
+                if not writable:
+                    raise LinkLost(f"{self.name}: the peer took no data for {self.write_stall_s:g} s") from None
                 continue
             except OSError as exc:
                 raise LinkLost(f"{self.name}: {exc.strerror}") from exc
@@ -72,34 +77,27 @@ class FdTransport:
             self.fd = -1
 
 
-class SerialTransport:
-    """A serial port (Pixhawk USB CDC, a UART, or a pty slave) via pyserial: 8N1, no flow control."""
+class SerialTransport(FdTransport):
+    """A serial port (Pixhawk USB CDC, a UART, or a pty slave): 8N1, no flow control.
+
+    pyserial opens, locks and configures the port; reads and writes then go straight to its
+    descriptor, because pyserial's own read/write add a second select and timeout bookkeeping
+    per call, which the lockstep loop pays twice per step.
+    """
+
+    lost_reason = "the port went away (unplugged or closed)"
 
     def __init__(self, path: str, baud: int = 921600) -> None:
-        self.name = path
         try:
             self._port = serial.Serial(path, baud, bytesize=8, parity="N", stopbits=1, timeout=0,
-                                       write_timeout=1.0, rtscts=False, xonxoff=False, exclusive=True)
+                                       rtscts=False, xonxoff=False, exclusive=True)
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"cannot open {path}: {exc} (is QGroundControl or another program holding it?)") from exc
-
-    def read(self, timeout_s: float) -> bytes:
-        try:
-            ready, _, _ = select.select([self._port.fileno()], [], [], max(timeout_s, 0.0))
-            if not ready:
-                return b""
-            return self._port.read(READ_CHUNK)
-        except (serial.SerialException, OSError) as exc:
-            raise LinkLost(f"{self.name}: port went away ({exc})") from exc
-
-    def write(self, data: bytes) -> None:
-        try:
-            self._port.write(data)
-        except (serial.SerialException, OSError) as exc:
-            raise LinkLost(f"{self.name}: port went away ({exc})") from exc
+        super().__init__(self._port.fileno(), path)
 
     def close(self) -> None:
         self._port.close()
+        self.fd = -1
 
 
 class _SocketTransport:
