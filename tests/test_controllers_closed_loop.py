@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -44,9 +45,20 @@ def paper_inputs(t, plant, u):
     u[plant.input_index["payload_mass"]] = 0.0 if t < 10 else (2.0 if t < 20 else 4.0)
 
 
+@functools.cache
+def fly_paper_study(name: str, inputs) -> tuple:
+    """30 s of the paper's helix on its airframe at 1 kHz (flown once per controller and inputs)."""
+    config = build_config({"airframe": "paper_airframe", "controller": name})
+    return config, fly(config, PAPER_PLANT, helix(10.0), 30.0, dt=0.001, start=(1.0, 0.0, -10.0), inputs=inputs)
+
+
+def errors_after_2s(trace):
+    after = trace.t > 2.0
+    return trace.pos[after] - trace.ref[after]
+
+
 def test_smarc_mass_estimate_follows_the_paper_mass_schedule():
-    config = build_config({"airframe": "paper_airframe", "controller": "smarc"})
-    trace = fly(config, PAPER_PLANT, helix(10.0), 30.0, dt=0.001, start=(1.0, 0.0, -10.0), inputs=paper_inputs)
+    config, trace = fly_paper_study("smarc", paper_inputs)
     m_hat = np.array([i["m_hat"] for i in trace.internals])
     for end_s, true_mass in ((10.0, 1.0), (20.0, 3.0), (30.0, 5.0)):
         k = np.searchsorted(trace.t, end_s - 1e-6)
@@ -78,18 +90,12 @@ def test_hover_with_px4_sitl_noise_and_the_estimator_in_the_loop(name):
     assert attitude_error.max() < 2.0
 
 
-def fly_paper_study(name, inputs):
-    config = build_config({"airframe": "paper_airframe", "controller": name})
-    trace = fly(config, PAPER_PLANT, helix(10.0), 30.0, dt=0.001, start=(1.0, 0.0, -10.0), inputs=inputs)
-    after = trace.t > 2.0
-    return config, trace.pos[after] - trace.ref[after]
-
-
 def test_smpid_at_1kg_keeps_x_and_y_within_the_papers_figure():
     """§5.1, Fig. 13: x and y errors within ±0.03 m. The amplitude also follows by hand from the design:
     d_s/m is a unit sinusoid at π rad/s on Ṡ = d − c·S − ε·S/φ inside the boundary layer, and
     ė + λ·e = S, so |e| = 1 / (|jπ + c + ε/φ| · |jπ + λ|)."""
-    config, error = fly_paper_study("smpid", paper_disturbances)
+    config, trace = fly_paper_study("smpid", paper_disturbances)
+    error = errors_after_2s(trace)
     k = config.gains.smpid
     w = 1j * math.pi
     amplitude = 1.0 / (abs(w + k.c_xy + k.epsilon_xy / k.boundary_layer) * abs(w + k.lambda_xy))
@@ -99,6 +105,7 @@ def test_smpid_at_1kg_keeps_x_and_y_within_the_papers_figure():
 
 def test_only_the_mass_estimate_keeps_altitude_through_the_papers_mass_steps():
     """§4–5: max |e_z| after 2 s orders SMARC < sliding mode PID < backstepping under 1 -> 3 -> 5 kg."""
-    max_ez = {name: np.abs(fly_paper_study(name, paper_inputs)[1][:, 2]).max() for name in CONTROLLERS}
+    max_ez = {name: np.abs(errors_after_2s(fly_paper_study(name, paper_inputs)[1])[:, 2]).max()
+              for name in CONTROLLERS}
     assert max_ez["smarc"] < max_ez["smpid"] < max_ez["backstepping"]
     assert max_ez["smarc"] < 0.5  # the adaptive law keeps the sag small; without it a 5 kg vehicle sinks metres
