@@ -16,15 +16,18 @@ from typing import Any
 from firmware_interface import hil_codec as codec
 from firmware_interface.link import Link, LinkError, Message
 
-MAV_TYPE_GENERIC, MAV_AUTOPILOT_INVALID, MAV_AUTOPILOT_PX4 = 0, 8, 12
-MAV_CMD_DO_SET_MODE, MAV_CMD_COMPONENT_ARM_DISARM = 176, 400
+MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, MAV_AUTOPILOT_PX4 = 6, 8, 12
+MAV_CMD_NAV_LAND, MAV_CMD_DO_SET_MODE, MAV_CMD_COMPONENT_ARM_DISARM = 21, 176, 400
 MAV_RESULT_ACCEPTED = 0
+MAV_LANDED_STATE_ON_GROUND = 1  # EXTENDED_SYS_STATE.landed_state
+FORCE_DISARM_MAGIC = 21196.0  # COMPONENT_ARM_DISARM param2: disarm even in the air (PX4's commander)
+HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
 MAV_FRAME_LOCAL_NED = 1
 PX4_CUSTOM_MAIN_MODE_OFFBOARD = 6
 SETPOINT_IGNORE_YAW_RATE = 2048  # SET_POSITION_TARGET_LOCAL_NED.type_mask: use pos, vel, acc, yaw
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
-                         "LOCAL_POSITION_NED", "ATTITUDE"})
+                         "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE"})
 
 
 class BoardKind(Enum):
@@ -85,11 +88,16 @@ class BoardSession:
         self.start_time = clock()
 
     # --- housekeeping -------------------------------------------------------------
-    def service(self) -> None:
-        """Send our heartbeat when due (1 Hz), as jMAVSim/Gazebo do; PX4 USB needs one to start MAVLink."""
-        now = self.clock()
-        if now - self._last_heartbeat_sent >= self.heartbeat_period_s:
-            self.link.send("HEARTBEAT", type=MAV_TYPE_GENERIC, autopilot=MAV_AUTOPILOT_INVALID,
+    def service(self, now_s: float | None = None) -> None:
+        """Send our heartbeat when due (1 Hz), as jMAVSim/Gazebo do; PX4 USB needs one to start MAVLink.
+
+        It says MAV_TYPE_GCS because PX4 sends STATUSTEXT (arming denials, failsafes) only on a link on
+        which a GCS has spoken. `now_s` is the simulation clock in lockstep, so that PX4 sees 1 Hz in its
+        own time whatever the real-time factor (the wall clock otherwise).
+        """
+        now = self.clock() if now_s is None else now_s
+        if now - self._last_heartbeat_sent >= self.heartbeat_period_s or now < self._last_heartbeat_sent:
+            self.link.send("HEARTBEAT", type=MAV_TYPE_GCS, autopilot=MAV_AUTOPILOT_INVALID,
                            base_mode=0, custom_mode=0, system_status=0, mavlink_version=3)
             self._last_heartbeat_sent = now
 
@@ -138,13 +146,15 @@ class BoardSession:
         self.link.encoder.system_id = msg.get_srcSystem()  # adopt the board's system id, as jMAVSim does
 
     # --- handshake ----------------------------------------------------------------
-    def wait_heartbeat(self, timeout_s: float = 5.0) -> BoardInfo:
+    def wait_heartbeat(self, timeout_s: float = 5.0, hint: str = HITL_HINT,
+                       still_starting: Callable[[], None] | None = None) -> BoardInfo:
+        """Wait for the board's first heartbeat; `still_starting` may raise when the board's process died."""
         deadline = self.clock() + timeout_s
         while self.state.info is None:
             if self.clock() > deadline:
-                raise BoardError(
-                    f"no heartbeat on {self.link.name} within {timeout_s:g} s — is SYS_HITL=1 set, the board "
-                    "rebooted, and the port not held by QGroundControl?")
+                raise BoardError(f"no heartbeat on {self.link.name} within {timeout_s:g} s — {hint}")
+            if still_starting is not None:
+                still_starting()
             self.service()
             self.poll(0.05)
         self._last_rx = self.clock()
@@ -175,7 +185,7 @@ class BoardSession:
     def send_step(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                   truth: codec.GroundTruth | None = None) -> None:
         """Send this step's sensors; the reply to wait for is the one echoing `readings.t_us`."""
-        self.service()
+        self.service(readings.t_us * 1e-6 if self.lockstep else None)
         self.send_sensors(readings, gps, truth)
         self._awaited_t_us = readings.t_us
 

@@ -12,14 +12,24 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.geodesy import LocalFrame
-from firmware_interface.board import MAV_CMD_COMPONENT_ARM_DISARM, MAV_CMD_DO_SET_MODE, BoardError, BoardKind
-from firmware_interface.board import PX4_CUSTOM_MAIN_MODE_OFFBOARD, MAV_RESULT_ACCEPTED
+from firmware_interface.board import (
+    FORCE_DISARM_MAGIC,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_NAV_LAND,
+    MAV_LANDED_STATE_ON_GROUND,
+    MAV_RESULT_ACCEPTED,
+    PX4_CUSTOM_MAIN_MODE_OFFBOARD,
+    BoardError,
+    BoardKind,
+)
 from firmware_interface.emulator.control import INTERNAL_KEYS
 from firmware_interface.link import LinkError, Message
 from hil.connect import BoardHandle
@@ -37,9 +47,28 @@ PREFLIGHT_TIMEOUT_S = 60.0  # simulated: PX4's GNSS checks alone need ~10 s of g
 ARM_RETRY_S = 1.0
 OFFBOARD_TIMEOUT_S = 5.0
 SETPOINTS_BEFORE_OFFBOARD_S = 0.2  # PX4 refuses offboard until setpoints are streaming
-LANDING_TIMEOUT_S = 60.0
+LAND_RETRY_S = 1.0
+LANDING_TIMEOUT_S = 60.0  # from the land request to a confirmed disarm
+DISARM_AFTER_LANDED_S = 3.0  # PX4 disarms by itself 2 s after landing (COM_DISARM_LAND); ask after this
+DISARM_TIMEOUT_S = 5.0  # `end: disarm`: the forced disarm must be confirmed within this
+LANDED_HEIGHT_M = 0.2  # the board says landed: the true vehicle must be this close to the ground
 
 EXIT_OK, EXIT_EXPECT_FAILED, EXIT_BOARD, EXIT_INTERRUPTED = 0, 1, 3, 130
+
+
+class Phase(StrEnum):
+    """The bench's phases, in flight order (the values are what the recording says)."""
+
+    PREFLIGHT = "preflight"  # on the ground until the board accepts arming
+    OFFBOARD = "offboard"  # armed, streaming the ground point until offboard is accepted
+    TAKEOFF = "takeoff"  # climbing to the reference's start (mission time < 0)
+    MISSION = "mission"  # the reference, 0 ≤ t ≤ duration
+    LANDING = "landing"  # the board's own land mode until it reports landed and disarmed
+    DISARMING = "disarming"  # `end: disarm`: a forced disarm where the vehicle is
+    DONE = "done"
+
+
+FLYING = (Phase.TAKEOFF, Phase.MISSION, Phase.LANDING, Phase.DISARMING)
 
 
 class RunAborted(RuntimeError):
@@ -78,6 +107,8 @@ def _board_payload(msg: Message) -> tuple[str, dict[str, Any]] | None:
         return kind, {"pos_ned": [msg.x, msg.y, msg.z], "vel_ned": [msg.vx, msg.vy, msg.vz]}
     if kind == "ATTITUDE":
         return kind, {"rpy": [msg.roll, msg.pitch, msg.yaw]}
+    if kind == "EXTENDED_SYS_STATE":
+        return kind, {"landed_state": msg.landed_state}
     return None
 
 
@@ -126,7 +157,11 @@ class Bench:
         self._rates = [o[n] for n in ("rate_x", "rate_y", "rate_z")]
         self._force = [o[n] for n in ("specific_force_x", "specific_force_y", "specific_force_z")]
         self.t_us = 0
-        self.phase = "preflight"
+        self.phase = Phase.PREFLIGHT
+        self._phase_since_s = 0.0
+        self._next_request_s = 0.0
+        self._landed_since_s: float | None = None
+        self.board_offset_ned: np.ndarray | None = None  # board local frame - truth, from arming on
         self.mission_t = -math.inf
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.armed = False
@@ -147,15 +182,17 @@ class Bench:
             reason, code = f"board/link failure: {exc}", EXIT_BOARD
         except PlantError as exc:
             reason, code = f"plant diverged: {exc}", EXIT_EXPECT_FAILED
-        except KeyboardInterrupt:
-            reason, code = "interrupted (Ctrl-C)", EXIT_INTERRUPTED
+        except KeyboardInterrupt as exc:
+            reason, code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
         finally:
             self._flush_pending()
             self.metrics.wall_s = time.perf_counter() - start_wall
             self.metrics.sim_s = self.t_us * 1e-6
             self.plant.close()
         metrics = self.metrics.compute(self.board.session.link.counters, self.realtime, self.dt)
-        metrics["phase_reached"] = self.phase
+        metrics["phase_reached"] = str(self.phase)
+        if self.board_offset_ned is not None:
+            metrics["board_frame_offset_m"] = [float(v) for v in self.board_offset_ned]
         return RunResult(code, reason, metrics)
 
     def _event(self, text: str) -> None:
@@ -164,66 +201,18 @@ class Bench:
             self.on_event(self.t_us, text)
 
     def _fly(self) -> None:
-        commands = self.board.commands
-        next_arm_try = 0.0
-        next_mode_try = 0.0
-        phase_since = 0.0
-        landing = None
-        on_ground_since: float | None = None
+        handlers = {Phase.PREFLIGHT: self._preflight, Phase.OFFBOARD: self._offboard, Phase.TAKEOFF: self._takeoff,
+                    Phase.MISSION: self._mission, Phase.LANDING: self._landing, Phase.DISARMING: self._disarming}
         next_deadline = time.perf_counter()
         last_progress = time.perf_counter()
         total_s = self.plan.takeoff_s + self.plan.duration_s
-        while True:
+        while self.phase is not Phase.DONE:
             now_s = self.t_us * 1e-6
-            # --- phase logic (commands are requests: their ACKs arrive over the next steps) ---
-            if self.phase == "preflight":
-                if now_s > PREFLIGHT_TIMEOUT_S:
-                    texts = "; ".join(t for _, t in commands.state.status_texts[-3:]) or "no reason given"
-                    raise RunAborted(f"board did not arm within {PREFLIGHT_TIMEOUT_S:g} s: {texts}", EXIT_BOARD)
-                ack = commands.acknowledged(MAV_CMD_COMPONENT_ARM_DISARM)
-                if ack == MAV_RESULT_ACCEPTED:
-                    self._switch("offboard", now_s)
-                    phase_since = now_s
-                    next_mode_try = now_s + SETPOINTS_BEFORE_OFFBOARD_S
-                elif now_s >= next_arm_try:
-                    commands.request(MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-                    next_arm_try = now_s + ARM_RETRY_S
-            elif self.phase == "offboard":
-                ack = commands.acknowledged(MAV_CMD_DO_SET_MODE)
-                if ack == MAV_RESULT_ACCEPTED:
-                    self._switch("takeoff", now_s)
-                    self.mission_t = -self.plan.takeoff_s
-                elif now_s - phase_since > OFFBOARD_TIMEOUT_S:
-                    texts = "; ".join(t for _, t in commands.state.status_texts[-2:])
-                    raise RunAborted(f"offboard mode refused (MAV_RESULT {ack}){': ' + texts if texts else ''}",
-                                     EXIT_BOARD)
-                elif now_s >= next_mode_try:
-                    commands.request(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM),
-                                                           float(PX4_CUSTOM_MAIN_MODE_OFFBOARD)))
-                    next_mode_try = now_s + 0.5
-            elif self.phase == "takeoff" and self.mission_t >= 0:
-                self._switch("mission", now_s)
-            elif self.phase == "mission" and self.mission_t > self.plan.duration_s:
-                if self.scenario.end == "disarm":
-                    commands.request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
-                    self._switch("done", now_s)
-                    self._step(None, self.mission_t)
-                    return
-                ref = self.plan.sample(self.plan.duration_s)
-                landing = self.plan.landing(self.plant.outputs()[self._pos].copy(), ref.yaw)
-                self._switch("landing", now_s)
-                phase_since = now_s
-            elif self.phase == "landing":
-                if self.plant.on_ground:
-                    on_ground_since = now_s if on_ground_since is None else on_ground_since
-                if (on_ground_since is not None and now_s - on_ground_since > 1.0) or now_s - phase_since > LANDING_TIMEOUT_S:
-                    commands.request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
-                    self._switch("done", now_s)
-                    self._step(None, self.mission_t)
-                    return
-            reference = self._reference(landing, now_s - phase_since)
+            reference = handlers[self.phase](now_s)
+            if self.phase is Phase.DONE:
+                return
             self._step(reference, self.mission_t)
-            if self.phase in ("takeoff", "mission", "landing"):
+            if self.phase in FLYING:
                 self.mission_t += self.dt
             if self.realtime:
                 next_deadline += self.dt
@@ -233,18 +222,131 @@ class Bench:
                 self.progress(max(self.mission_t, -self.plan.takeoff_s) + self.plan.takeoff_s, total_s,
                               self.t_us * 1e-6 / max(last_progress - self._started, 1e-9))
 
-    def _switch(self, phase: str, now_s: float) -> None:
+    # --- phases: each returns the reference to fly this step (None: no setpoint) ----
+    def _last_texts(self, count: int) -> str:
+        return "; ".join(t for _, t in self.board.commands.state.status_texts[-count:])
+
+    def _request_every(self, now_s: float, period_s: float, command: int, params: tuple[float, ...]) -> None:
+        """Send a command now and again every `period_s` until its ACK arrives (the ACK is read per step)."""
+        if now_s >= self._next_request_s:
+            self.board.commands.request(command, params)
+            self._next_request_s = now_s + period_s
+
+    def _switch(self, phase: Phase, now_s: float) -> None:
         self._event(f"phase {self.phase} -> {phase} at {now_s:.3f} s")
         self.phase = phase
+        self._phase_since_s = now_s
+        self._next_request_s = now_s
 
-    def _reference(self, landing: Any, landing_t: float) -> RefSample | None:
-        if self.phase in ("takeoff", "mission"):
+    def _preflight(self, now_s: float) -> RefSample | None:
+        commands = self.board.commands
+        if now_s > PREFLIGHT_TIMEOUT_S:
+            if commands.state.info is None:
+                raise RunAborted(f"no heartbeat from the board on {commands.link.name} within "
+                                 f"{PREFLIGHT_TIMEOUT_S:g} s of stepping", EXIT_BOARD)
+            raise RunAborted(f"board did not arm within {PREFLIGHT_TIMEOUT_S:g} s: "
+                             f"{self._last_texts(3) or 'no reason given'}", EXIT_BOARD)
+        if commands.state.info is None:
+            return None  # PX4 SITL opens its MAVLink ports only as its clock runs: keep stepping
+        if commands.acknowledged(MAV_CMD_COMPONENT_ARM_DISARM) == MAV_RESULT_ACCEPTED:
+            self._align_board_frame()
+            self._switch(Phase.OFFBOARD, now_s)
+            self._next_request_s = now_s + SETPOINTS_BEFORE_OFFBOARD_S
+        else:
+            self._request_every(now_s, ARM_RETRY_S, MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
+        return None if self.phase is Phase.PREFLIGHT else self.plan.sample(-self.plan.takeoff_s)
+
+    def _offboard(self, now_s: float) -> RefSample | None:
+        ack = self.board.commands.acknowledged(MAV_CMD_DO_SET_MODE)
+        if ack == MAV_RESULT_ACCEPTED:
+            self._switch(Phase.TAKEOFF, now_s)
+            self.mission_t = -self.plan.takeoff_s
+        elif now_s - self._phase_since_s > OFFBOARD_TIMEOUT_S:
+            texts = self._last_texts(2)
+            raise RunAborted(f"offboard mode refused (MAV_RESULT {ack}){': ' + texts if texts else ''}", EXIT_BOARD)
+        else:
+            self._request_every(now_s, 0.5, MAV_CMD_DO_SET_MODE,
+                                (float(codec.MODE_FLAG_CUSTOM), float(PX4_CUSTOM_MAIN_MODE_OFFBOARD)))
+        return self.plan.sample(self.mission_t if self.phase is Phase.TAKEOFF else -self.plan.takeoff_s)
+
+    def _takeoff(self, now_s: float) -> RefSample | None:
+        if self.mission_t >= 0:
+            self._switch(Phase.MISSION, now_s)
+        return self.plan.sample(self.mission_t)
+
+    def _mission(self, now_s: float) -> RefSample | None:
+        if self.mission_t <= self.plan.duration_s:
             return self.plan.sample(self.mission_t)
-        if self.phase == "landing" and landing is not None:
-            return landing.sample(landing_t)
-        if self.phase == "offboard":
-            return self.plan.sample(-self.plan.takeoff_s)
+        self._switch(Phase.DISARMING if self.scenario.end == "disarm" else Phase.LANDING, now_s)
+        return self._end_point()
+
+    def _end_point(self) -> RefSample:
+        return self.plan.sample(self.plan.duration_s)
+
+    def _landing(self, now_s: float) -> RefSample | None:
+        """The board lands by itself (PX4's land mode); done once it reports landed and disarmed."""
+        commands = self.board.commands
+        if now_s - self._phase_since_s > LANDING_TIMEOUT_S:
+            extended = commands.state.latest.get("EXTENDED_SYS_STATE")
+            landed = "no EXTENDED_SYS_STATE" if extended is None else f"landed_state {extended.landed_state}"
+            texts = self._last_texts(2)
+            raise RunAborted(f"landing timed out after {LANDING_TIMEOUT_S:g} s: board reports {landed}, "
+                             f"{'armed' if commands.state.armed else 'disarmed'}{'; ' + texts if texts else ''}",
+                             EXIT_EXPECT_FAILED)
+        land_accepted = commands.acknowledged(MAV_CMD_NAV_LAND) == MAV_RESULT_ACCEPTED
+        if not land_accepted:
+            self._request_every(now_s, LAND_RETRY_S, MAV_CMD_NAV_LAND, ())
+            return self._end_point()  # keep offboard fed until the board has switched to landing
+        if not self._board_landed():
+            self._landed_since_s = None
+            return None
+        if self._landed_since_s is None:
+            self._landed_since_s = now_s
+            self._event(f"board reports landed at {now_s:.3f} s")
+        if not commands.state.armed:
+            self._finish_on_ground(now_s)
+        elif now_s - self._landed_since_s > DISARM_AFTER_LANDED_S:
+            self._request_every(now_s, 1.0, MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
         return None
+
+    def _board_landed(self) -> bool:
+        extended = self.board.commands.state.latest.get("EXTENDED_SYS_STATE")
+        return extended is not None and extended.landed_state == MAV_LANDED_STATE_ON_GROUND
+
+    def _finish_on_ground(self, now_s: float) -> None:
+        height = -float(self.plant.outputs()[self._pos][2])
+        if height > LANDED_HEIGHT_M:
+            raise RunAborted(f"the board reported landed and disarmed at {now_s:.3f} s with the vehicle "
+                             f"{height:.2f} m above the ground", EXIT_EXPECT_FAILED)
+        self._event(f"disarmed on the ground at {now_s:.3f} s")
+        self._switch(Phase.DONE, now_s)
+
+    def _disarming(self, now_s: float) -> RefSample | None:
+        commands = self.board.commands
+        confirmed = (commands.acknowledged(MAV_CMD_COMPONENT_ARM_DISARM) == MAV_RESULT_ACCEPTED
+                     or not self.armed)
+        if confirmed and now_s > self._phase_since_s:
+            self._event(f"disarmed at {now_s:.3f} s (end: disarm)")
+            self._switch(Phase.DONE, now_s)
+            return None
+        if now_s - self._phase_since_s > DISARM_TIMEOUT_S:
+            raise RunAborted(f"disarm not confirmed within {DISARM_TIMEOUT_S:g} s: {self._last_texts(2)}",
+                             EXIT_EXPECT_FAILED)
+        self._request_every(now_s, 0.5, MAV_CMD_COMPONENT_ARM_DISARM, (0.0, FORCE_DISARM_MAGIC))
+        return self._end_point()
+
+    def _align_board_frame(self) -> None:
+        """Setpoints go to the board in its own local frame: the offset between its LOCAL_POSITION_NED and
+        the true position, taken when it accepts arming (on the ground, at rest) and kept for the run."""
+        local = self.board.commands.state.latest.get("LOCAL_POSITION_NED")
+        truth = self.plant.outputs()[self._pos]
+        if local is None:
+            self._event("board sent no LOCAL_POSITION_NED before arming: setpoints in the bench's frame")
+            self.board_offset_ned = np.zeros(3)
+            return
+        self.board_offset_ned = np.array((local.x, local.y, local.z)) - truth
+        self._event("board frame: local origin offset [{:+.3f}, {:+.3f}, {:+.3f}] m (board - truth)".format(
+            *self.board_offset_ned))
 
     def _sleep_until(self, deadline: float) -> None:
         now = time.perf_counter()
@@ -260,7 +362,7 @@ class Bench:
     # --- one step -----------------------------------------------------------------
     def _step(self, reference: RefSample | None, mission_t: float) -> None:
         step_start = time.perf_counter()
-        env = self.environment.sample(mission_t if self.phase in ("takeoff", "mission", "landing") else -1.0)
+        env = self.environment.sample(mission_t if self.phase in FLYING else -1.0)
         u = self._inputs
         u[self._motor_idx] = self.motors
         u[self._health_idx] = env.motor_health
@@ -279,10 +381,13 @@ class Bench:
         sent = time.perf_counter()
         session.link.begin_batch()  # setpoint first, then sensors, in one write: the board flies this step
         if reference is not None:  # on this step's setpoint whatever the scheduling (and deterministically)
-            self.board.commands.send_setpoint(self.t_us // 1000, tuple(reference.pos_ned), tuple(reference.vel_ned),
-                                              tuple(reference.acc_ned), reference.yaw)
+            offset = self.board_offset_ned if self.board_offset_ned is not None else 0.0
+            self.board.commands.send_setpoint(self.t_us // 1000, tuple(reference.pos_ned + offset),
+                                              tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
         session.send_step(readings, gps, self._ground_truth(out) if self.send_truth else None)
         session.link.flush()
+        if self.board.commands is not session:
+            self.board.commands.service(self.t_us * 1e-6 if session.lockstep else None)
         self._flush_pending()  # the previous step's sinks run while the board computes this one
         t_sent = time.perf_counter()
         actuators = session.await_reply()
@@ -294,6 +399,8 @@ class Bench:
         for kind, payload in board:
             if kind == "STATUSTEXT":
                 self._event(f"board: {payload['text']}")
+            elif kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None and self.phase is Phase.MISSION:
+                self.metrics.add_estimate_error(np.array(payload["pos_ned"]) - self.board_offset_ned - out[self._pos])
         frame = StepFrame(self.t_us, mission_t, self.phase, out.copy(), self.plant.on_ground, reference, readings, gps,
                           self.motors, self.armed, env, board, time.perf_counter() - step_start, round_trip)
         self._pending = frame

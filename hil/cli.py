@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 
@@ -66,8 +67,14 @@ def _cmd_check(args: argparse.Namespace) -> int:
     return EXIT_BAD_INPUT if bad else EXIT_OK
 
 
+def _terminate(signum: int, _frame: object) -> None:
+    """SIGTERM (timeout, systemd, CI) ends a run as Ctrl-C does: files closed, PX4 stopped."""
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from hil.progress import progress_printer
+    from hil.px4 import Px4Build, Px4SetupError
     from hil.runner import RunOptions, run_scenario
 
     scenarios, bad = _load([args.scenario])
@@ -86,10 +93,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
         except ValueError:
             print(f"hil run: --telemetry-rate {item}: expected CHANNEL=HZ, e.g. state=50", file=sys.stderr)
             return EXIT_BAD_INPUT
-    options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, runs_root=Path(args.runs),
-                         telemetry=None if args.no_telemetry else _zenoh_options(args), telemetry_rates_hz=rates)
-    with progress_printer(scenario.name) as progress:
-        outcome = run_scenario(scenario, options, progress=progress)
+    try:
+        px4 = Px4Build.locate(args.px4, "--px4") if args.px4 else None
+        px4_hitl = Px4Build.locate(args.px4_hitl, "--px4-hitl") if args.px4_hitl else None
+    except Px4SetupError as exc:
+        print(f"hil run: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, px4=px4, px4_hitl=px4_hitl,
+                         runs_root=Path(args.runs), telemetry=None if args.no_telemetry else _zenoh_options(args),
+                         telemetry_rates_hz=rates)
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        with progress_printer(scenario.name) as progress:
+            outcome = run_scenario(scenario, options, progress=progress)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     print(outcome.summary, end="")
     print(f"run directory: {outcome.run_dir}")
     return outcome.exit_code
@@ -192,13 +210,19 @@ def build_parser() -> argparse.ArgumentParser:
     hover.set_defaults(func=_cmd_fmu_hover)
     run = sub.add_parser("run", help="fly a scenario through the HIL chain", description=(
         "Fly SCENARIO: the plant FMU and sensor models on this machine, the flight code on a board. Without "
-        "--port the built-in emulator runs on a pty in lockstep. With a Pixhawk (SYS_HITL=1, airframe 1001 "
-        "HIL Quadcopter X) use --port /dev/ttyACM0 (wall-clock real time, 250 Hz). With PX4 SITL use "
-        "--port tcpin:0.0.0.0:4560 (PX4 connects as the client; lockstep) and --mavlink udpout:127.0.0.1:14580 "
-        "for arming/offboard on PX4's offboard MAVLink port. Exit codes: 0 pass, 1 expectations not met, "
-        "2 bad input, 3 board/link failure, 130 interrupted."))
+        "--port the built-in emulator runs on a pty in lockstep. --px4 DIR starts PX4 SITL from a build "
+        "(PX4-Autopilot/build/px4_sitl_default) for this run, in lockstep; --px4-hitl DIR starts PX4's HITL "
+        "code path (a px4_sitl_nolockstep build) on a pty and flies the serial path a Pixhawk gets. With a "
+        "Pixhawk (SYS_HITL=1) use --port /dev/ttyACM0 (wall-clock real time). With a PX4 SITL you started "
+        "yourself use --port tcpin:127.0.0.1:4560 --mavlink udpout:127.0.0.1:14580. Exit codes: 0 pass, "
+        "1 expectations not met or the flight went wrong, 2 bad input, 3 board/link failure, 130 interrupted."))
     run.add_argument("scenario", help="scenario YAML file")
-    run.add_argument("--port", help="board connection: /dev/ttyACM0, serial:PATH:BAUD, tcpin:HOST:PORT, tcp:, udpin:, udpout:")
+    board = run.add_mutually_exclusive_group()
+    board.add_argument("--port", help="board connection: /dev/ttyACM0, serial:PATH:BAUD, tcpin:HOST:PORT, tcp:, "
+                                      "udpin:, udpout:")
+    board.add_argument("--px4", metavar="DIR", help="start PX4 SITL from this build for the run (lockstep)")
+    board.add_argument("--px4-hitl", metavar="DIR", help="start PX4's HITL code path from this px4_sitl_nolockstep "
+                                                         "build on a pty (wall-clock, the serial path)")
     run.add_argument("--mavlink", help="separate command link (PX4 SITL: udpout:127.0.0.1:14580)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
     run.add_argument("--controller", choices=("smarc", "smpid", "backstepping"), help="override the emulator's controller")

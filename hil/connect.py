@@ -1,18 +1,50 @@
-"""Attach the bench to a board: the built-in emulator on a fresh pty, or a real port."""
+"""Attach the bench to a board: the built-in emulator on a fresh pty, PX4 started by the bench
+(SITL in lockstep, or PX4's HITL code path on a pty), or a board the user started or plugged in."""
 
 from __future__ import annotations
 
+import ctypes
+import signal
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import yaml
 
-from firmware_interface.board import BoardKind, BoardSession
-from firmware_interface.link import Link, open_link, open_pty_pair, parse_connection
+from firmware_interface.board import BoardError, BoardKind, BoardSession
+from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link, open_pty_pair, parse_connection
+from hil.px4 import Px4Build, Px4Process, claim_instance
+from hil.px4.hitl_startup import write_hitl_startup
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
+
+SITL_SIMULATOR_PORT = 4560  # PX4 SITL instance N connects to 127.0.0.1:4560+N
+SITL_OFFBOARD_PORT = 14580  # PX4 SITL instance N listens for offboard/API MAVLink on UDP 14580+N
+SITL_GCS_PORT = 14550  # where PX4 SITL's GCS instance sends (QGroundControl's default)
+PX4_START_TIMEOUT_S = 30.0
+MANUAL_SITL_WAIT_S = 60.0  # a PX4 started by hand after the bench has this long to connect
+SITL_HINT = ("start PX4 SITL now (in PX4-Autopilot: make px4_sitl none_iris; or let the bench start it with "
+             "--px4 DIR); PX4 connects to 127.0.0.1:4560+instance")
+
+
+class BoardProcess(Protocol):
+    def stop(self) -> None: ...
+
+
+@dataclass
+class EmulatorProcess:
+    popen: subprocess.Popen[bytes]
+
+    def stop(self) -> None:
+        if self.popen.poll() is None:
+            self.popen.terminate()
+            try:
+                self.popen.wait(2.0)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait()
 
 
 @dataclass
@@ -21,15 +53,13 @@ class BoardHandle:
     commands: BoardSession  # heartbeat, arming, offboard, setpoints: the same session unless --mavlink
     kind: BoardKind
     description: str
-    process: subprocess.Popen[bytes] | None = None
+    flight_code: str  # what flies: the emulator's controller, or PX4's own
+    process: BoardProcess | None = None
 
     def close(self) -> None:
-        if self.process is not None and self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(2.0)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
+        """Stop what the bench started (PX4 included: nothing is left running), then close the links."""
+        if self.process is not None:
+            self.process.stop()
         self.session.link.close()
         if self.commands is not self.session:
             self.commands.link.close()
@@ -53,14 +83,15 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> Boar
     config_path.write_text(yaml.safe_dump(emulator_config(scenario), sort_keys=False))
     pair = open_pty_pair()
     log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
-    process = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
-                                "--config", str(config_path)], stdout=log, stderr=log,
-                               start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
+    popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
+                              "--config", str(config_path)], stdout=log, stderr=log,
+                             start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
     session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=watchdog_s)
-    handle = BoardHandle(session, session, BoardKind.EMULATOR, f"emulator on {pair.slave_path}", process)
+    handle = BoardHandle(session, session, BoardKind.EMULATOR, f"emulator on {pair.slave_path}",
+                         f"emulator, controller {scenario.board.controller}", EmulatorProcess(popen))
     try:
-        session.wait_heartbeat(15.0)
-    except Exception:
+        session.wait_heartbeat(15.0, hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
+    except BaseException:
         handle.close()
         raise
     finally:
@@ -69,8 +100,95 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> Boar
 
 
 def open_board(port: str, mavlink: str | None, watchdog_s: float) -> BoardHandle:
+    """A board the user attached: a Pixhawk on a serial port (HITL), or a PX4 SITL started by hand."""
     connection = parse_connection(port)
     kind = BoardKind.HITL if connection.kind == "serial" else BoardKind.SITL
     session = BoardSession(open_link(port), kind, watchdog_s=watchdog_s)
     commands = BoardSession(open_link(mavlink), kind, watchdog_s=watchdog_s) if mavlink else session
-    return BoardHandle(session, commands, kind, f"{kind.value} on {port}" + (f", commands on {mavlink}" if mavlink else ""))
+    description = f"{kind.value} on {port}" + (f", commands on {mavlink}" if mavlink else "")
+    handle = BoardHandle(session, commands, kind, description, "the board's own (PX4)")
+    try:
+        if kind is BoardKind.SITL:
+            session.wait_heartbeat(MANUAL_SITL_WAIT_S, hint=SITL_HINT)
+        else:
+            session.wait_heartbeat(10.0)
+    except BaseException:
+        handle.close()
+        raise
+    return handle
+
+
+def _die_with_parent() -> None:
+    """In the PX4 child: SIGTERM if the bench dies without stopping it (kill -9), so no PX4 is orphaned."""
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+
+
+def _started_by_us(px4: Px4Process) -> None:
+    code = px4.exit_code()
+    if code is not None:
+        raise BoardError(f"PX4 exited during start-up (code {code}): {px4.log_tail() or 'no output'} "
+                         f"(console: {px4.log_path})")
+
+
+def _reserve_simulator_port(instance: int) -> TcpServerTransport | None:
+    try:
+        return TcpServerTransport("127.0.0.1", SITL_SIMULATOR_PORT + instance)
+    except LinkError:
+        return None
+
+
+def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHandle:
+    """PX4 SITL from `build` on a free instance, its rootfs (and ULogs) in `run_dir/px4`, lockstep over TCP."""
+    claim, listener = claim_instance(_reserve_simulator_port)
+    n = claim.number
+    try:
+        px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log",
+                         {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1"},
+                         preexec=_die_with_parent)
+    except BaseException:
+        listener.close()
+        claim.release()
+        raise
+    session = BoardSession(Link(listener), BoardKind.SITL, watchdog_s=watchdog_s)
+    commands = BoardSession(open_link(f"udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}"), BoardKind.SITL,
+                            watchdog_s=watchdog_s)
+    handle = BoardHandle(session, commands, BoardKind.SITL,
+                         f"PX4 SITL instance {n} ({build.root}), simulator tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, "
+                         f"commands udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}, QGroundControl: udp {SITL_GCS_PORT}",
+                         "PX4 (its own estimator and controllers)", px4)
+    try:
+        session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"PX4 did not connect; see {px4.log_path}",
+                               still_starting=lambda: _started_by_us(px4))
+    except BaseException:
+        handle.close()
+        raise
+    return handle
+
+
+def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHandle:
+    """PX4's HITL code path from `build` (a px4_sitl_nolockstep build) with its HIL link on a pty: the
+    bench then flies the same serial path as with a Pixhawk on /dev/ttyACM0."""
+    pair = open_pty_pair()
+    claim, _ = claim_instance(lambda n: n)
+    try:
+        script = write_hitl_startup(run_dir / "px4-hitl.rcS", pair.slave_path)
+        px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
+                         extra_args=("-s", str(script)), preexec=_die_with_parent)
+    except BaseException:
+        claim.release()
+        pair.master.close()
+        pair.release_slave()
+        raise
+    session = BoardSession(Link(pair.master), BoardKind.HITL, watchdog_s=watchdog_s)
+    handle = BoardHandle(session, session, BoardKind.HITL,
+                         f"PX4 HITL rehearsal, instance {claim.number} ({build.root}) on {pair.slave_path}",
+                         "PX4 (its own estimator and controllers)", px4)
+    try:
+        session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"is {build.root} a px4_sitl_nolockstep build? "
+                               f"see {px4.log_path}", still_starting=lambda: _started_by_us(px4))
+    except BaseException:
+        handle.close()
+        raise
+    finally:
+        pair.release_slave()  # PX4 holds its end now
+    return handle

@@ -51,6 +51,7 @@ class MetricsCollector:
     ref: list[np.ndarray] = field(default_factory=list)
     attitude: list[tuple[float, np.ndarray, tuple[float, float, float]]] = field(default_factory=list)
     estimates: list[tuple[float, float, dict[str, float]]] = field(default_factory=list)  # t, true mass, values
+    estimate_error: list[np.ndarray] = field(default_factory=list)  # board's LOCAL_POSITION_NED - truth, m
     step_wall_s: list[float] = field(default_factory=list)
     round_trip_s: list[float] = field(default_factory=list)
     step_starts: list[float] = field(default_factory=list)
@@ -76,6 +77,11 @@ class MetricsCollector:
             elif kind == "DEBUG_FLOAT_ARRAY":
                 self.estimates.append((frame.mission_t, float(frame.truth[_OUT["total_mass"]]), payload["values"]))
 
+    def add_estimate_error(self, error_ned: np.ndarray) -> None:
+        """The board's own position estimate minus the truth (its frame offset at arming removed): a property
+        of the flight stack under test, reported beside the tracking error."""
+        self.estimate_error.append(error_ned)
+
     def compute(self, link_counters: dict[str, int], realtime: bool, period_s: float) -> dict[str, Any]:
         t = np.array(self.t)
         settled = t >= self.settle_s
@@ -88,6 +94,9 @@ class MetricsCollector:
             err = _wrap(np.array([a[1] - a[2] for a in att]))
             result["attitude_error_deg"] = {axis: _stats(np.degrees(err[:, i])) for i, axis in
                                             enumerate(("roll", "pitch", "yaw"))}
+        if self.estimate_error:
+            err = np.array(self.estimate_error)
+            result["board_estimate_error_m"] = {axis: _stats(err[:, i]) for i, axis in enumerate("xyz")}
         if self.estimates:
             result["board_estimates"] = self._estimates()
         wall = self.wall_s

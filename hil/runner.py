@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -9,7 +13,8 @@ from typing import Any
 from firmware_interface.board import BoardError
 from firmware_interface.link import LinkError
 from hil.bench import EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERRUPTED, EXIT_OK, Bench, Sink
-from hil.connect import BoardHandle, open_board, start_emulator
+from hil.connect import BoardHandle, open_board, start_emulator, start_px4_hitl, start_px4_sitl
+from hil.px4 import Px4Build
 from hil.metrics import check_expectations
 from hil.recorder import Recorder, make_run_dir
 from hil.scenario.schema import Scenario
@@ -21,6 +26,8 @@ class RunOptions:
     port: str | None = None  # None: the built-in emulator on a pty
     mavlink: str | None = None  # PX4 SITL: a separate MAVLink link for commands (e.g. udpout:127.0.0.1:14580)
     realtime: bool = False
+    px4: Px4Build | None = None  # the bench starts PX4 SITL from this build (lockstep)
+    px4_hitl: Px4Build | None = None  # the bench starts PX4's HITL code path from this build on a pty
     runs_root: Path = Path("runs")
     watchdog_s: float = 1.0
     telemetry: ZenohOptions | None = field(default_factory=ZenohOptions)  # None: no telemetry
@@ -37,11 +44,43 @@ class RunOutcome:
     summary: str
 
 
+def _board_label(options: RunOptions) -> str:
+    if options.px4 is not None:
+        return f"PX4 SITL from {options.px4.root}"
+    if options.px4_hitl is not None:
+        return f"PX4 HITL rehearsal from {options.px4_hitl.root}"
+    return "emulator" if options.port is None else options.port
+
+
+def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path) -> BoardHandle:
+    """Start or connect the board the options name; returns once it has spoken."""
+    if options.px4 is not None:
+        return start_px4_sitl(options.px4, run_dir, options.watchdog_s)
+    if options.px4_hitl is not None:
+        return start_px4_hitl(options.px4_hitl, run_dir, options.watchdog_s)
+    if options.port is None:
+        return start_emulator(scenario, run_dir, options.watchdog_s)
+    return open_board(options.port, options.mavlink, options.watchdog_s)
+
+
+@contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Closing PX4 and the recording is not interrupted by a second Ctrl-C (it would orphan PX4)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | None = None,
                  progress: Any = None) -> RunOutcome:
     run_dir = make_run_dir(options.runs_root, scenario.name)
     meta = {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
-            "board": "emulator" if options.port is None else options.port, "command_link": options.mavlink,
+            "board": _board_label(options), "command_link": options.mavlink,
             "pacing": "realtime" if options.realtime else "lockstep (realtime for a serial board)"}
     resolved = scenario.model_dump(mode="json")
     recorder = Recorder(run_dir, resolved, meta)
@@ -51,14 +90,14 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
     metrics: dict[str, Any] = {}
     failures: list[str] = []
     board_text = "not connected"
+    flight_code = (f"emulator, controller {scenario.board.controller}"
+                   if options.port is None and options.px4 is None and options.px4_hitl is None
+                   else "the board's own (PX4)")
+    reason, code = "not started", EXIT_BOARD
     try:
         try:
-            handle = (start_emulator(scenario, run_dir, options.watchdog_s) if options.port is None
-                      else open_board(options.port, options.mavlink, options.watchdog_s))
-            board_text = handle.description
-            handle.session.wait_heartbeat(10.0)
-            if handle.commands is not handle.session:
-                handle.commands.wait_heartbeat(10.0)
+            handle = attach_board(scenario, options, run_dir)
+            board_text, flight_code = handle.description, handle.flight_code
         except (BoardError, LinkError) as exc:
             reason, code = f"board/link failure: {exc}", EXIT_BOARD
         except KeyboardInterrupt:
@@ -83,16 +122,17 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
                 failures = check_expectations(scenario.expect, metrics)
                 code = EXIT_EXPECT_FAILED if failures else EXIT_OK
     finally:
-        if handle is not None:
-            handle.close()
-        summary = format_summary(scenario, board_text, reason, code, metrics, failures)
-        full_metrics = {"exit_code": code, "reason": reason, "expectations_failed": failures, **metrics}
-        recorder.finish(full_metrics, summary)
-        if publisher is not None:
-            publisher.summary(final_t_us, full_metrics, summary)
-            publisher.close()
-        if session is not None:
-            session.close()
+        with _sigint_deferred():
+            if handle is not None:
+                handle.close()
+            summary = format_summary(scenario, board_text, flight_code, reason, code, metrics, failures)
+            full_metrics = {"exit_code": code, "reason": reason, "expectations_failed": failures, **metrics}
+            recorder.finish(full_metrics, summary)
+            if publisher is not None:
+                publisher.summary(final_t_us, full_metrics, summary)
+                publisher.close()
+            if session is not None:
+                session.close()
     return RunOutcome(code, reason, run_dir, metrics, failures, summary)
 
 
@@ -102,16 +142,18 @@ def _axis_line(label: str, stats: dict[str, dict[str, float]], unit: str) -> str
     return f"{label} ({unit}): " + "; ".join(parts)
 
 
-def format_summary(scenario: Scenario, board: str, reason: str, code: int, metrics: dict[str, Any],
-                   failures: list[str]) -> str:
+def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str, code: int,
+                   metrics: dict[str, Any], failures: list[str]) -> str:
     verdict = {EXIT_OK: "PASS", EXIT_EXPECT_FAILED: "FAIL"}.get(code, "ABORTED")
     lines = [f"scenario: {scenario.name} (seed {scenario.seed}, {scenario.rate_hz:g} Hz, {scenario.duration_s:g} s)",
-             f"board: {board}, controller {scenario.board.controller}",
+             f"board: {board}", f"flight code: {flight_code}",
              f"result: {verdict} (exit {code})", f"ended: {reason}"]
     if "phase_reached" in metrics:
         lines.append(f"phase reached: {metrics['phase_reached']}")
     if "position_error_m" in metrics:
         lines.append(_axis_line(f"position error after {metrics['settle_s']:g} s", metrics["position_error_m"], "m"))
+    if "board_estimate_error_m" in metrics:
+        lines.append(_axis_line("board's position estimate - truth", metrics["board_estimate_error_m"], "m"))
     if "attitude_error_deg" in metrics:
         lines.append(_axis_line("attitude error vs commanded", metrics["attitude_error_deg"], "deg"))
     for window in metrics.get("board_estimates", {}).get("mass_estimate_windows", []):

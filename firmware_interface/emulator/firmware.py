@@ -25,13 +25,26 @@ from firmware_interface.link import Link, LinkLost, Message
 
 MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4 = 2, 12
 MAV_STATE_STANDBY, MAV_STATE_ACTIVE, MAV_STATE_BOOT = 3, 4, 1
-MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED = 0, 2, 3
-MAV_CMD_DO_SET_MODE, MAV_CMD_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL = 176, 400, 511
-PX4_MAIN_MODE_POSCTL, PX4_MAIN_MODE_OFFBOARD = 3, 6
+MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED = 0, 1, 2, 3
+MAV_CMD_NAV_LAND, MAV_CMD_DO_SET_MODE, MAV_CMD_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL = 21, 176, 400, 511
+MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR, MAV_LANDED_STATE_LANDING = 1, 2, 4
+FORCE_DISARM_MAGIC = 21196  # COMPONENT_ARM_DISARM param2 that disarms in the air, as PX4's commander
+PX4_MAIN_MODE_POSCTL, PX4_MAIN_MODE_AUTO, PX4_MAIN_MODE_OFFBOARD = 3, 4, 6
+PX4_AUTO_SUB_MODE_LAND = 6
 SEVERITY_CRITICAL, SEVERITY_INFO = 2, 6
 HEARTBEAT_PERIOD_US = 1_000_000
 TELEMETRY_PERIOD_US = 20_000  # ATTITUDE, LOCAL_POSITION_NED, ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY at 50 Hz
+EXTENDED_SYS_STATE_PERIOD_US = 200_000  # 5 Hz, PX4's rate on its onboard link
 LANDED_CLEARANCE_M = 0.3  # adaptation and integrators wait until the vehicle has left the ground
+# PX4's land mode and multicopter land detector, in their default settings: descend at MPC_LAND_SPEED;
+# landed once vertical speed < LNDMC_Z_VEL_MAX, horizontal < LNDMC_XY_VEL_MAX and thrust low for
+# LNDMC_TRIG_TIME; disarm COM_DISARM_LAND after that.
+LAND_SPEED_M_S = 0.7
+LAND_Z_VEL_MAX_M_S = 0.25
+LAND_XY_VEL_MAX_M_S = 1.5
+LAND_LOW_THRUST_FRACTION = 0.6  # of the nominal hover thrust (PX4's ground-contact limit with a hover estimate)
+LAND_TRIGGER_S = 1.0
+DISARM_AFTER_LAND_S = 2.0
 
 
 class EmulatedBoard:
@@ -51,6 +64,10 @@ class EmulatedBoard:
         self.hold: Setpoint | None = None
         self.takeoff_d: float | None = None
         self.airborne = False
+        self.landing = False  # in land mode (MAV_CMD_NAV_LAND)
+        self.land_evidence_s = 0.0  # how long the land detector's conditions have held
+        self.landed_at_us: int | None = None
+        self.last_extended_state_us = -EXTENDED_SYS_STATE_PERIOD_US
         self.last_sensor_t_us: int | None = None
         self.last_sensor_wall = clock()
         self.last_telemetry_us = -TELEMETRY_PERIOD_US
@@ -110,14 +127,23 @@ class EmulatedBoard:
         self.estimator.on_sensors(readings)
         motors = (0.0, 0.0, 0.0, 0.0)
         state = self._state()
-        if self.armed and state is not None and 0.0 < dt < 0.1:
+        if self.landed_at_us is not None and readings.t_us - self.landed_at_us >= DISARM_AFTER_LAND_S * 1e6:
+            self.landed_at_us = None
+            self._disarm()
+            self._status(SEVERITY_INFO, "Disarmed by landing")
+        if self.armed and state is not None and 0.0 < dt < 0.1 and self.landed_at_us is None:
             motors = self._control(state, dt)
+            if self.landing:
+                self._detect_landing(state, dt, readings.t_us)
         self.last_output = motors
         # Telemetry and heartbeat go out before the reply and on the simulation clock, like PX4 SITL's
         # streams: in lockstep the bench then sees each step's messages with that step's reply.
         if readings.t_us - self.last_heartbeat_us >= HEARTBEAT_PERIOD_US:
             self.last_heartbeat_us = readings.t_us
             self._heartbeat()
+        if readings.t_us - self.last_extended_state_us >= EXTENDED_SYS_STATE_PERIOD_US:
+            self.last_extended_state_us = readings.t_us
+            self.link.send("EXTENDED_SYS_STATE", vtol_state=0, landed_state=self.landed_state)
         if readings.t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
             self.last_telemetry_us = readings.t_us
             self._telemetry(readings.t_us, state)
@@ -146,15 +172,49 @@ class EmulatedBoard:
         if self.takeoff_d is None:
             self.takeoff_d = float(state.pos_ned[2])
         self.airborne = self.airborne or state.pos_ned[2] < self.takeoff_d - LANDED_CLEARANCE_M
-        if self.offboard and self.setpoint is not None:
+        if self.landing and self.hold is not None:
+            self.hold.pos_ned[2] += LAND_SPEED_M_S * dt  # a descent the ground ends, as PX4's land mode
+            setpoint = self.hold
+        elif self.offboard and self.setpoint is not None:
             setpoint = self.setpoint
         else:
             if self.hold is None:
                 self.hold = Setpoint(state.pos_ned.copy(), np.zeros(3), np.zeros(3), float(state.eta[2]))
             setpoint = self.hold
-        out = self.controller.update(state, setpoint, dt, adapt=self.airborne)
+        # no adaptation while landing: pushing on the ground would read as a heavier vehicle
+        out = self.controller.update(state, setpoint, dt, adapt=self.airborne and not self.landing)
         self.last_control = out
         return tuple(float(u) for u in self.mixer.commands(out.thrust_n, out.torque_frd))
+
+    @property
+    def landed_state(self) -> int:
+        """EXTENDED_SYS_STATE.landed_state: on the ground until take-off and again once landed."""
+        if not self.airborne:
+            return MAV_LANDED_STATE_ON_GROUND
+        return MAV_LANDED_STATE_LANDING if self.landing else MAV_LANDED_STATE_IN_AIR
+
+    def _detect_landing(self, state: VehicleState, dt: float, t_us: int) -> None:
+        out = self.last_control
+        hover_n = self.config.vehicle.mass * self.config.vehicle.g
+        still = (abs(float(state.vel_ned[2])) < LAND_Z_VEL_MAX_M_S
+                 and float(np.hypot(state.vel_ned[0], state.vel_ned[1])) < LAND_XY_VEL_MAX_M_S
+                 and out is not None and out.thrust_n < LAND_LOW_THRUST_FRACTION * hover_n)
+        self.land_evidence_s = self.land_evidence_s + dt if still else 0.0
+        if self.land_evidence_s >= LAND_TRIGGER_S:
+            self.landing = False
+            self.airborne = False
+            self.landed_at_us = t_us
+            self._status(SEVERITY_INFO, "Landing detected")
+
+    def _start_landing(self) -> int:
+        state = self._state()
+        if not self.armed or state is None:
+            return MAV_RESULT_DENIED
+        self.landing, self.offboard, self.land_evidence_s = True, False, 0.0
+        self.hold = Setpoint(state.pos_ned.copy(), np.array((0.0, 0.0, LAND_SPEED_M_S)), np.zeros(3),
+                             float(state.eta[2]))
+        self._status(SEVERITY_INFO, "Landing at current position")
+        return MAV_RESULT_ACCEPTED
 
     # --- commands -----------------------------------------------------------------
     def _on_command(self, msg: Message) -> None:
@@ -164,9 +224,14 @@ class EmulatedBoard:
         if msg.command == MAV_CMD_ARM_DISARM:
             if msg.param1 == 1.0:
                 result = self._arm()
+            elif self.airborne and round(msg.param2) != FORCE_DISARM_MAGIC:
+                self._status(SEVERITY_CRITICAL, "Disarming denied: not landed")
+                result = MAV_RESULT_TEMPORARILY_REJECTED
             else:
                 self._disarm()
                 result = MAV_RESULT_ACCEPTED
+        elif msg.command == MAV_CMD_NAV_LAND:
+            result = self._start_landing()
         elif msg.command == MAV_CMD_DO_SET_MODE:
             wants_offboard = int(msg.param2) == PX4_MAIN_MODE_OFFBOARD
             if wants_offboard and self.setpoint is None:
@@ -197,15 +262,20 @@ class EmulatedBoard:
     def _disarm(self) -> None:
         self.armed = False
         self.offboard = False
+        self.landing = False
+        self.landed_at_us = None
 
     # --- messages out -------------------------------------------------------------
     def _heartbeat(self) -> None:
         base_mode = codec.MODE_FLAG_CUSTOM | codec.MODE_FLAG_HIL | (codec.MODE_FLAG_ARMED if self.armed else 0)
-        main_mode = PX4_MAIN_MODE_OFFBOARD if self.offboard else PX4_MAIN_MODE_POSCTL
+        if self.landing:
+            custom_mode = PX4_MAIN_MODE_AUTO << 16 | PX4_AUTO_SUB_MODE_LAND << 24
+        else:
+            custom_mode = (PX4_MAIN_MODE_OFFBOARD if self.offboard else PX4_MAIN_MODE_POSCTL) << 16
         ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
         status = MAV_STATE_ACTIVE if self.armed else (MAV_STATE_STANDBY if ready else MAV_STATE_BOOT)
         self.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
-                       custom_mode=main_mode << 16, system_status=status, mavlink_version=3)
+                       custom_mode=custom_mode, system_status=status, mavlink_version=3)
 
     def _status(self, severity: int, text: str) -> None:
         self.link.send("STATUSTEXT", severity=severity, text=text[:50].ljust(50, "\0"), id=0, chunk_seq=0)

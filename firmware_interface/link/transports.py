@@ -17,7 +17,8 @@ import serial
 
 from firmware_interface.link.errors import LinkError, LinkLost
 
-READ_CHUNK = 4096
+READ_CHUNK = 65536  # one read takes everything waiting: a board may send several hundred frames a second
+UDP_RECEIVE_BUFFER = 1 << 20  # PX4 SITL's MAVLink bursts must wait in the kernel, not be dropped there
 
 
 class Transport(Protocol):
@@ -198,6 +199,8 @@ class UdpTransport:
     def __init__(self, host: str, port: int, listen: bool) -> None:
         self.name = f"{'udpin' if listen else 'udpout'}:{host}:{port}"
         self._sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, UDP_RECEIVE_BUFFER)
+        self._listen = listen
         self._peer: tuple[str, int] | None = None
         if listen:
             try:
@@ -210,16 +213,21 @@ class UdpTransport:
         self.port = self._sock.getsockname()[1] if listen else port
 
     def read(self, timeout_s: float) -> bytes:
+        """Every datagram waiting (after up to `timeout_s` for the first), joined: a caller that reads once
+        per step must not fall behind a board that sends more datagrams than steps."""
         ready, _, _ = select.select([self._sock], [], [], max(timeout_s, 0.0))
         if not ready:
             return b""
-        try:
-            data, sender = self._sock.recvfrom(65535)
-        except ConnectionRefusedError:
-            return b""  # an ICMP error for an earlier datagram: UDP has no connection to lose
-        if self.name.startswith("udpin"):
-            self._peer = sender
-        return data
+        chunks: list[bytes] = []
+        while True:
+            try:
+                data, sender = self._sock.recvfrom(65535, socket.MSG_DONTWAIT)
+            except (BlockingIOError, ConnectionRefusedError):  # drained, or an ICMP error for an earlier datagram
+                break
+            chunks.append(data)
+            if self._listen:
+                self._peer = sender
+        return b"".join(chunks)
 
     def write(self, data: bytes) -> None:
         if self._peer is None:
