@@ -19,12 +19,14 @@ from firmware_interface.link import Link, LinkError, Message
 MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, MAV_AUTOPILOT_PX4 = 6, 8, 12
 MAV_CMD_NAV_LAND, MAV_CMD_DO_SET_MODE, MAV_CMD_COMPONENT_ARM_DISARM = 21, 176, 400
 MAV_RESULT_ACCEPTED = 0
+MAV_PARAM_TYPE_REAL32 = 9
 MAV_LANDED_STATE_ON_GROUND = 1  # EXTENDED_SYS_STATE.landed_state
 FORCE_DISARM_MAGIC = 21196.0  # COMPONENT_ARM_DISARM param2: disarm even in the air (PX4's commander)
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
 MAV_FRAME_LOCAL_NED = 1
 PX4_CUSTOM_MAIN_MODE_OFFBOARD = 6
 SETPOINT_IGNORE_YAW_RATE = 2048  # SET_POSITION_TARGET_LOCAL_NED.type_mask: use pos, vel, acc, yaw
+STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
                          "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE"})
@@ -62,6 +64,7 @@ class BoardState:
     status_texts: list[tuple[int, str]] = field(default_factory=list)
     latest: dict[str, Message] = field(default_factory=dict)
     acks: dict[int, int] = field(default_factory=dict)
+    params: dict[str, float] = field(default_factory=dict)  # PARAM_VALUE answers, by name
 
 
 class BoardSession:
@@ -83,6 +86,7 @@ class BoardSession:
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
         self._last_heartbeat_sent = -1e9
+        self._text_chunks: dict[int, list[str]] = {}
         self._last_rx = clock()
         self.link.encoder.component_id = BENCH_COMPONENT_ID
         self.start_time = clock()
@@ -129,11 +133,29 @@ class BoardSession:
             self._handle_heartbeat(msg)
         elif kind == "COMMAND_ACK":
             self.state.acks[msg.command] = msg.result
+        elif kind == "PARAM_VALUE":
+            self.state.params[msg.param_id] = float(msg.param_value)
         elif kind == "STATUSTEXT":
-            self.state.status_texts.append((msg.severity, msg.text))
+            text = self._statustext(msg)
+            if text is None:
+                return  # more chunks to come
+            msg.text = text
+            self.state.status_texts.append((msg.severity, text))
         if kind in INBOX_KINDS:
             self.inbox.append(msg)
         self.state.latest[kind] = msg
+
+    def _statustext(self, msg: Message) -> str | None:
+        """The whole text: PX4 sends a text over 50 characters in chunks sharing one `id`, the last shorter
+        than 50; None until that last chunk."""
+        if msg.id == 0:
+            return msg.text.strip()
+        parts = self._text_chunks.setdefault(msg.id, [])
+        parts.append(msg.text)
+        if len(msg.text) == STATUSTEXT_CHUNK and len(parts) < STATUSTEXT_MAX_CHUNKS:
+            return None
+        del self._text_chunks[msg.id]
+        return "".join(parts).strip()
 
     def _handle_heartbeat(self, msg: Message) -> None:
         if msg.autopilot == MAV_AUTOPILOT_INVALID:  # another simulator or GCS, not the board
@@ -249,6 +271,13 @@ class BoardSession:
         self.link.send("COMMAND_LONG", target_system=system, target_component=component, command=command,
                        confirmation=0, param1=p[0], param2=p[1], param3=p[2], param4=p[3], param5=p[4],
                        param6=p[5], param7=p[6])
+
+    def set_param(self, name: str, value: float) -> None:
+        """PARAM_SET of a float parameter without waiting; PX4 answers with PARAM_VALUE (see `state.params`)."""
+        system, component = self._target()
+        self.state.params.pop(name, None)
+        self.link.send("PARAM_SET", target_system=system, target_component=component, param_id=name,
+                       param_value=float(value), param_type=MAV_PARAM_TYPE_REAL32)
 
     def acknowledged(self, command: int) -> int | None:
         return self.state.acks.get(command)

@@ -155,12 +155,14 @@ class Bench:
         self._vel = [o[n] for n in ("vel_n", "vel_e", "vel_d")]
         self._quat = [o[n] for n in ("q_w", "q_x", "q_y", "q_z")]
         self._rates = [o[n] for n in ("rate_x", "rate_y", "rate_z")]
+        self._rpy = [o[n] for n in ("roll", "pitch", "yaw")]
         self._force = [o[n] for n in ("specific_force_x", "specific_force_y", "specific_force_z")]
         self.t_us = 0
         self.phase = Phase.PREFLIGHT
         self._phase_since_s = 0.0
         self._next_request_s = 0.0
         self._landed_since_s: float | None = None
+        self._params_reported = False
         self.board_offset_ned: np.ndarray | None = None  # board local frame - truth, from arming on
         self.mission_t = -math.inf
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
@@ -248,6 +250,8 @@ class Bench:
                              f"{self._last_texts(3) or 'no reason given'}", EXIT_BOARD)
         if commands.state.info is None:
             return None  # PX4 SITL opens its MAVLink ports only as its clock runs: keep stepping
+        if not self._board_params_set(now_s):
+            return None
         if commands.acknowledged(MAV_CMD_COMPONENT_ARM_DISARM) == MAV_RESULT_ACCEPTED:
             self._align_board_frame()
             self._switch(Phase.OFFBOARD, now_s)
@@ -255,6 +259,23 @@ class Bench:
         else:
             self._request_every(now_s, ARM_RETRY_S, MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
         return None if self.phase is Phase.PREFLIGHT else self.plan.sample(-self.plan.takeoff_s)
+
+    def _board_params_set(self, now_s: float) -> bool:
+        """The parameters the bench owes the board (e.g. EKF2_GPS_DELAY for the simulated receiver), set and
+        read back before arming; True once all are confirmed."""
+        state = self.board.commands.state
+        pending = {name: value for name, value in self.board.params.items()
+                   if state.params.get(name) is None or abs(state.params[name] - value) > 1e-3 * max(abs(value), 1)}
+        if not pending:
+            if self.board.params and not self._params_reported:
+                self._params_reported = True
+                self._event("board parameters set: " + ", ".join(f"{n} = {v:g}" for n, v in self.board.params.items()))
+            return True
+        if now_s >= self._next_request_s:
+            for name, value in pending.items():
+                self.board.commands.set_param(name, value)
+            self._next_request_s = now_s + ARM_RETRY_S
+        return False
 
     def _offboard(self, now_s: float) -> RefSample | None:
         ack = self.board.commands.acknowledged(MAV_CMD_DO_SET_MODE)
@@ -399,8 +420,12 @@ class Bench:
         for kind, payload in board:
             if kind == "STATUSTEXT":
                 self._event(f"board: {payload['text']}")
-            elif kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None and self.phase is Phase.MISSION:
+            elif self.phase is not Phase.MISSION:
+                continue
+            elif kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None:
                 self.metrics.add_estimate_error(np.array(payload["pos_ned"]) - self.board_offset_ned - out[self._pos])
+            elif kind == "ATTITUDE":
+                self.metrics.add_attitude_estimate_error(np.array(payload["rpy"]) - out[self._rpy])
         frame = StepFrame(self.t_us, mission_t, self.phase, out.copy(), self.plant.on_ground, reference, readings, gps,
                           self.motors, self.armed, env, board, time.perf_counter() - step_start, round_trip)
         self._pending = frame

@@ -100,6 +100,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"hil run: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, px4=px4, px4_hitl=px4_hitl,
+                         connect_timeout_s=args.connect_timeout,
                          runs_root=Path(args.runs), telemetry=None if args.no_telemetry else _zenoh_options(args),
                          telemetry_rates_hz=rates)
     previous = signal.signal(signal.SIGTERM, _terminate)
@@ -224,6 +225,8 @@ def build_parser() -> argparse.ArgumentParser:
     board.add_argument("--px4-hitl", metavar="DIR", help="start PX4's HITL code path from this px4_sitl_nolockstep "
                                                          "build on a pty (wall-clock, the serial path)")
     run.add_argument("--mavlink", help="separate command link (PX4 SITL: udpout:127.0.0.1:14580)")
+    run.add_argument("--connect-timeout", type=float, metavar="S",
+                     help="seconds to wait for a board you attached (default 60 for PX4 SITL, 10 for serial)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
     run.add_argument("--controller", choices=("smarc", "smpid", "backstepping"), help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")

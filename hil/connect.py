@@ -7,7 +7,7 @@ import ctypes
 import signal
 import subprocess
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol
 
@@ -25,7 +25,8 @@ SITL_OFFBOARD_PORT = 14580  # PX4 SITL instance N listens for offboard/API MAVLi
 SITL_GCS_PORT = 14550  # where PX4 SITL's GCS instance sends (QGroundControl's default)
 PX4_START_TIMEOUT_S = 30.0
 MANUAL_SITL_WAIT_S = 60.0  # a PX4 started by hand after the bench has this long to connect
-SITL_HINT = ("start PX4 SITL now (in PX4-Autopilot: make px4_sitl none_iris; or let the bench start it with "
+SERIAL_WAIT_S = 10.0  # a Pixhawk sends its heartbeat at 1 Hz from boot
+SITL_HINT = ("is PX4 SITL running? Start it (in PX4-Autopilot: make px4_sitl none_iris; or let the bench start it with "
              "--px4 DIR); PX4 connects to 127.0.0.1:4560+instance")
 
 
@@ -55,6 +56,7 @@ class BoardHandle:
     description: str
     flight_code: str  # what flies: the emulator's controller, or PX4's own
     process: BoardProcess | None = None
+    params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
 
     def close(self) -> None:
         """Stop what the bench started (PX4 included: nothing is left running), then close the links."""
@@ -63,6 +65,14 @@ class BoardHandle:
         self.session.link.close()
         if self.commands is not self.session:
             self.commands.link.close()
+
+
+def px4_parameters(scenario: Scenario) -> dict[str, float]:
+    """What a PX4 the bench started is told about the simulated vehicle, as a user configures a real one:
+    EKF2_GPS_DELAY (ms) is the receiver's delay (PX4 SITL's own default of 10 ms assumes a delay-free
+    simulator GPS)."""
+    gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
+    return {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
 
 
 def emulator_config(scenario: Scenario) -> dict:
@@ -99,8 +109,9 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> Boar
     return handle
 
 
-def open_board(port: str, mavlink: str | None, watchdog_s: float) -> BoardHandle:
-    """A board the user attached: a Pixhawk on a serial port (HITL), or a PX4 SITL started by hand."""
+def open_board(port: str, mavlink: str | None, watchdog_s: float, wait_s: float | None = None) -> BoardHandle:
+    """A board the user attached: a Pixhawk on a serial port (HITL), or a PX4 SITL started by hand (which
+    may be started after the bench: it gets `wait_s`, by default MANUAL_SITL_WAIT_S, to connect)."""
     connection = parse_connection(port)
     kind = BoardKind.HITL if connection.kind == "serial" else BoardKind.SITL
     session = BoardSession(open_link(port), kind, watchdog_s=watchdog_s)
@@ -109,9 +120,9 @@ def open_board(port: str, mavlink: str | None, watchdog_s: float) -> BoardHandle
     handle = BoardHandle(session, commands, kind, description, "the board's own (PX4)")
     try:
         if kind is BoardKind.SITL:
-            session.wait_heartbeat(MANUAL_SITL_WAIT_S, hint=SITL_HINT)
+            session.wait_heartbeat(wait_s or MANUAL_SITL_WAIT_S, hint=SITL_HINT)
         else:
-            session.wait_heartbeat(10.0)
+            session.wait_heartbeat(wait_s or SERIAL_WAIT_S)
     except BaseException:
         handle.close()
         raise

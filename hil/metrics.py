@@ -52,6 +52,7 @@ class MetricsCollector:
     attitude: list[tuple[float, np.ndarray, tuple[float, float, float]]] = field(default_factory=list)
     estimates: list[tuple[float, float, dict[str, float]]] = field(default_factory=list)  # t, true mass, values
     estimate_error: list[np.ndarray] = field(default_factory=list)  # board's LOCAL_POSITION_NED - truth, m
+    attitude_estimate_error: list[np.ndarray] = field(default_factory=list)  # board's ATTITUDE - truth, rad
     step_wall_s: list[float] = field(default_factory=list)
     round_trip_s: list[float] = field(default_factory=list)
     step_starts: list[float] = field(default_factory=list)
@@ -82,6 +83,9 @@ class MetricsCollector:
         of the flight stack under test, reported beside the tracking error."""
         self.estimate_error.append(error_ned)
 
+    def add_attitude_estimate_error(self, error_rpy: np.ndarray) -> None:
+        self.attitude_estimate_error.append(error_rpy)
+
     def compute(self, link_counters: dict[str, int], realtime: bool, period_s: float) -> dict[str, Any]:
         t = np.array(self.t)
         settled = t >= self.settle_s
@@ -97,6 +101,10 @@ class MetricsCollector:
         if self.estimate_error:
             err = np.array(self.estimate_error)
             result["board_estimate_error_m"] = {axis: _stats(err[:, i]) for i, axis in enumerate("xyz")}
+        if self.attitude_estimate_error:
+            err = np.degrees(_wrap(np.array(self.attitude_estimate_error)))
+            result["board_attitude_estimate_error_deg"] = {axis: _stats(err[:, i])
+                                                           for i, axis in enumerate(("roll", "pitch", "yaw"))}
         if self.estimates:
             result["board_estimates"] = self._estimates()
         wall = self.wall_s

@@ -10,10 +10,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from firmware_interface.board import BoardError
+from firmware_interface.board import BoardError, BoardKind
 from firmware_interface.link import LinkError
 from hil.bench import EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERRUPTED, EXIT_OK, Bench, Sink
-from hil.connect import BoardHandle, open_board, start_emulator, start_px4_hitl, start_px4_sitl
+from hil.connect import BoardHandle, open_board, px4_parameters, start_emulator, start_px4_hitl, start_px4_sitl
 from hil.px4 import Px4Build
 from hil.metrics import check_expectations
 from hil.recorder import Recorder, make_run_dir
@@ -26,6 +26,7 @@ class RunOptions:
     port: str | None = None  # None: the built-in emulator on a pty
     mavlink: str | None = None  # PX4 SITL: a separate MAVLink link for commands (e.g. udpout:127.0.0.1:14580)
     realtime: bool = False
+    connect_timeout_s: float | None = None  # a board the user attached: how long to wait for it
     px4: Px4Build | None = None  # the bench starts PX4 SITL from this build (lockstep)
     px4_hitl: Px4Build | None = None  # the bench starts PX4's HITL code path from this build on a pty
     runs_root: Path = Path("runs")
@@ -55,12 +56,16 @@ def _board_label(options: RunOptions) -> str:
 def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path) -> BoardHandle:
     """Start or connect the board the options name; returns once it has spoken."""
     if options.px4 is not None:
-        return start_px4_sitl(options.px4, run_dir, options.watchdog_s)
+        handle = start_px4_sitl(options.px4, run_dir, options.watchdog_s)
+        handle.params = px4_parameters(scenario)
+        return handle
     if options.px4_hitl is not None:
-        return start_px4_hitl(options.px4_hitl, run_dir, options.watchdog_s)
+        handle = start_px4_hitl(options.px4_hitl, run_dir, options.watchdog_s)
+        handle.params = px4_parameters(scenario)
+        return handle
     if options.port is None:
         return start_emulator(scenario, run_dir, options.watchdog_s)
-    return open_board(options.port, options.mavlink, options.watchdog_s)
+    return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s)
 
 
 @contextmanager
@@ -119,7 +124,8 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
             reason, code, metrics = result.reason, result.exit_code, result.metrics
             final_t_us = bench.t_us
             if code == EXIT_OK:
-                failures = check_expectations(scenario.expect, metrics)
+                px4 = handle.kind is not BoardKind.EMULATOR
+                failures = check_expectations(scenario.expect.for_board(px4) if scenario.expect else None, metrics)
                 code = EXIT_EXPECT_FAILED if failures else EXIT_OK
     finally:
         with _sigint_deferred():
@@ -154,6 +160,9 @@ def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str
         lines.append(_axis_line(f"position error after {metrics['settle_s']:g} s", metrics["position_error_m"], "m"))
     if "board_estimate_error_m" in metrics:
         lines.append(_axis_line("board's position estimate - truth", metrics["board_estimate_error_m"], "m"))
+    if "board_attitude_estimate_error_deg" in metrics:
+        lines.append(_axis_line("board's attitude estimate - truth", metrics["board_attitude_estimate_error_deg"],
+                                "deg"))
     if "attitude_error_deg" in metrics:
         lines.append(_axis_line("attitude error vs commanded", metrics["attitude_error_deg"], "deg"))
     for window in metrics.get("board_estimates", {}).get("mass_estimate_windows", []):

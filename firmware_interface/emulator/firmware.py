@@ -42,7 +42,7 @@ LANDED_CLEARANCE_M = 0.3  # adaptation and integrators wait until the vehicle ha
 LAND_SPEED_M_S = 0.7
 LAND_Z_VEL_MAX_M_S = 0.25
 LAND_XY_VEL_MAX_M_S = 1.5
-LAND_LOW_THRUST_FRACTION = 0.6  # of the nominal hover thrust (PX4's ground-contact limit with a hover estimate)
+LAND_LOW_THRUST_FRACTION = 0.6  # of the hover thrust estimate (PX4's ground-contact limit with one)
 LAND_TRIGGER_S = 1.0
 DISARM_AFTER_LAND_S = 2.0
 
@@ -67,6 +67,7 @@ class EmulatedBoard:
         self.landing = False  # in land mode (MAV_CMD_NAV_LAND)
         self.land_evidence_s = 0.0  # how long the land detector's conditions have held
         self.landed_at_us: int | None = None
+        self.hover_thrust_n = 0.0
         self.last_extended_state_us = -EXTENDED_SYS_STATE_PERIOD_US
         self.last_sensor_t_us: int | None = None
         self.last_sensor_wall = clock()
@@ -195,10 +196,9 @@ class EmulatedBoard:
 
     def _detect_landing(self, state: VehicleState, dt: float, t_us: int) -> None:
         out = self.last_control
-        hover_n = self.config.vehicle.mass * self.config.vehicle.g
         still = (abs(float(state.vel_ned[2])) < LAND_Z_VEL_MAX_M_S
                  and float(np.hypot(state.vel_ned[0], state.vel_ned[1])) < LAND_XY_VEL_MAX_M_S
-                 and out is not None and out.thrust_n < LAND_LOW_THRUST_FRACTION * hover_n)
+                 and out is not None and out.thrust_n < LAND_LOW_THRUST_FRACTION * self.hover_thrust_n)
         self.land_evidence_s = self.land_evidence_s + dt if still else 0.0
         if self.land_evidence_s >= LAND_TRIGGER_S:
             self.landing = False
@@ -211,6 +211,10 @@ class EmulatedBoard:
         if not self.armed or state is None:
             return MAV_RESULT_DENIED
         self.landing, self.offboard, self.land_evidence_s = True, False, 0.0
+        # the thrust that holds the vehicle now is the hover thrust estimate (payload included), as PX4's
+        # hover thrust estimator gives its land detector
+        nominal_n = self.config.vehicle.mass * self.config.vehicle.g
+        self.hover_thrust_n = self.last_control.thrust_n if self.last_control is not None else nominal_n
         self.hold = Setpoint(state.pos_ned.copy(), np.array((0.0, 0.0, LAND_SPEED_M_S)), np.zeros(3),
                              float(state.eta[2]))
         self._status(SEVERITY_INFO, "Landing at current position")

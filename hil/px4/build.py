@@ -7,6 +7,7 @@ Both layouts a user has are accepted: PX4-Autopilot's `build/px4_sitl_default` (
 from __future__ import annotations
 
 import os
+import tarfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,3 +44,27 @@ class Px4Build:
         if not (build.etc / "init.d-posix" / "rcS").is_file():
             raise Px4SetupError(f"{option} {path}: no etc/init.d-posix/rcS next to bin/px4 (incomplete build?)")
         return build
+
+
+# PX4-Autopilot's build directory name, and the binary package's file pattern, for each kind of build
+LAYOUTS = {"sitl": ("px4_sitl_default", "px4-sitl-*.tar.gz"),
+           "hitl": ("px4_sitl_nolockstep", "px4-hitl-nolockstep-*.tar.gz")}
+
+
+def find_build(root: Path, kind: str, scratch: Path) -> Path:
+    """The `kind` build under `root`: `root/px4_sitl_default` (PX4-Autopilot/build) or a package
+    `root/px4-sitl-*.tar.gz` unpacked into `scratch`. Raises Px4SetupError when there is neither."""
+    build_dir, pattern = LAYOUTS[kind]
+    if (root / build_dir / "bin" / "px4").is_file():
+        return root / build_dir
+    packages = sorted(root.glob(pattern))
+    if not packages:
+        raise Px4SetupError(f"{root}: neither {build_dir}/bin/px4 nor a {pattern} package")
+    target = scratch / kind
+    target.mkdir(parents=True, exist_ok=True)
+    with tarfile.open(packages[-1]) as archive:
+        archive.extractall(target, filter="tar")
+    for candidate in (target, *sorted(p for p in target.iterdir() if p.is_dir())):
+        if (candidate / "bin" / "px4").is_file():
+            return candidate
+    raise Px4SetupError(f"{packages[-1]}: no bin/px4 in the package")

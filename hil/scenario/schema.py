@@ -146,11 +146,23 @@ class Telemetry(_Model):
     rates_hz: dict[str, PositiveFloat] = Field(default_factory=dict)
 
 
-class Expect(_Model):
-    settle_s: float = Field(5.0, ge=0)
+class Bounds(_Model):
     max_error_m: float | tuple[float, float, float] | None = None
     max_attitude_error_deg: PositiveFloat | None = None
     min_realtime_factor: PositiveFloat | None = None
+
+
+class Expect(Bounds):
+    """Pass/fail bounds. `px4` replaces any of them when PX4 flies (SITL, HITL rehearsal, a Pixhawk): its
+    estimator is not the emulator's, and a bound must follow from what the flying estimator can achieve."""
+
+    settle_s: float = Field(5.0, ge=0)
+    px4: Bounds | None = None
+
+    def for_board(self, px4: bool) -> Expect:
+        if not px4 or self.px4 is None:
+            return self
+        return self.model_copy(update=self.px4.model_dump(exclude_unset=True))
 
 
 class Scenario(_Model):

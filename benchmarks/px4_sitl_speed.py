@@ -1,0 +1,116 @@
+"""Lockstep real-time factor of PX4 SITL driven by a minimal simulator, next to `hil run
+scenarios/hover.yaml --px4 DIR` on the same PX4 build, measured in the same run, and their ratio.
+
+The minimal simulator is the reference for PX4's own cost: it sends one HIL_SENSOR (a vehicle at
+rest, with a little noise so PX4 does not call its sensors stale) and a HIL_GPS at 10 Hz, waits for
+the HIL_ACTUATOR_CONTROLS that echoes that step's time, and repeats; no plant, no sensor models,
+no recording. Rounds alternate the two so that the machine's load hits both alike; medians are
+printed. Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from firmware_interface import hil_codec as codec  # noqa: E402
+from firmware_interface.board import BoardKind, BoardSession  # noqa: E402
+from hil.connect import start_px4_sitl  # noqa: E402
+from hil.px4.build import Px4Build, find_build  # noqa: E402
+
+RATE_HZ = 250
+MINIMAL_SIM_S = 60.0
+GPS_EVERY = RATE_HZ // 10
+HOME = (47.397742, 8.545594, 488.0)
+MAG_FRD_T = (2.16e-5, 0.13e-5, 4.28e-5)  # roughly the earth field at PX4's default home, vehicle facing north
+
+
+def minimal_simulator(build: Px4Build, scratch: Path) -> float:
+    """PX4 SITL stepped by the simplest simulator there is; returns simulated s per wall s."""
+    handle = start_px4_sitl(build, scratch, watchdog_s=2.0)
+    session = handle.session
+    rng = np.random.default_rng(1)
+    dt_us = 1_000_000 // RATE_HZ
+    steps = int(MINIMAL_SIM_S * RATE_HZ)
+    try:
+        t_us = 0
+        started = None
+        for step in range(steps):
+            t_us += dt_us
+            noise = rng.normal(0.0, 1.0, 10)
+            readings = codec.SensorReadings(
+                t_us, (0.01 * noise[0], 0.01 * noise[1], -9.80665 + 0.01 * noise[2]),
+                (1e-3 * noise[3], 1e-3 * noise[4], 1e-3 * noise[5]),
+                tuple(b + 2e-8 * n for b, n in zip(MAG_FRD_T, noise[6:9])),
+                codec.Baro(95598.0 + noise[9], 15.0, 0.0))
+            gps = None
+            if step % GPS_EVERY == 0:
+                gps = codec.GpsFix(t_us, *HOME, (0.0, 0.0, 0.0), 1.0, 1.0)
+            session.exchange(readings, gps)
+            if started is None and session.lockstep:
+                started, t0_us = time.perf_counter(), t_us
+        assert started is not None, "PX4 never entered lockstep"
+        return (t_us - t0_us) * 1e-6 / (time.perf_counter() - started)
+    finally:
+        handle.close()
+
+
+def bench_hover(build: Px4Build, scratch: Path) -> dict:
+    """`hil run scenarios/hover.yaml --px4 DIR` as a user runs it (telemetry on); its metrics."""
+    runs = scratch / "runs"
+    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(build.root),
+                             "--runs", str(runs)], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    run_dir = next(p for p in runs.iterdir() if p.is_dir())
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    if result.returncode != 0:
+        print(f"  (hil run exited {result.returncode}: {metrics.get('reason')})")
+    return metrics
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--px4", help="a px4_sitl_default build (default: from HIL_PX4_DIR)")
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        scratch = Path(tmp)
+        if args.px4:
+            build = Px4Build.locate(args.px4, "--px4")
+        elif os.environ.get("HIL_PX4_DIR"):
+            build = Px4Build.locate(find_build(Path(os.environ["HIL_PX4_DIR"]), "sitl", scratch), "HIL_PX4_DIR")
+        else:
+            print("px4_sitl_speed: give --px4 DIR or set HIL_PX4_DIR (see tests/px4_builds.py)", file=sys.stderr)
+            return 2
+        minimal, bench, breakdowns = [], [], []
+        for round_no in range(args.rounds):
+            minimal.append(minimal_simulator(build, scratch / f"min{round_no}"))
+            metrics = bench_hover(build, scratch / f"bench{round_no}")
+            bench.append(metrics["timing"]["realtime_factor"])
+            breakdowns.append(metrics["timing"]["breakdown_us_per_step"])
+            print(f"round {round_no + 1}: PX4 + minimal simulator {minimal[-1]:.1f}x, "
+                  f"hil run hover --px4 {bench[-1]:.1f}x")
+    ref, ours = statistics.median(minimal), statistics.median(bench)
+    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {args.rounds} rounds")
+    print(f"{'run':<52} {'real-time factor':>16} {'ratio':>7}")
+    print(f"{'PX4 v1.15.4 SITL + minimal simulator':<52} {ref:>15.1f}x {1.0:>7.2f}")
+    print(f"{'hil run scenarios/hover.yaml --px4 DIR':<52} {ours:>15.1f}x {ours / ref:>7.2f}")
+    print("\nbench per step (us, median over rounds):")
+    for key in breakdowns[0]:
+        print(f"  {key:<26} {statistics.median(b[key] for b in breakdowns):8.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,230 @@
+"""The bench against real, unmodified PX4 v1.15.4: SITL in lockstep (`--px4`) and PX4's HITL code path
+on a pty (`--px4-hitl`). Checked against PX4's own flight log (ULog, read with pyulog) and its console.
+
+Needs HIL_PX4_DIR (see tests/px4_builds.py); CI sets it, and a missing PX4 fails CI rather than skipping.
+"""
+
+from __future__ import annotations
+
+import json
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mcap.reader import make_reader
+from pyulog import ULog
+
+from hil.telemetry import ZenohOptions, subscribe
+from tests.px4_builds import px4_build
+
+pytestmark = [pytest.mark.px4, pytest.mark.slow]
+ROOT = Path(__file__).resolve().parent.parent
+BENCH_COMPONENT = 51  # firmware_interface.board.BENCH_COMPONENT_ID: PX4 acks our commands to it
+ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # PX4 vehicle_status.arming_state
+NAV_STATE_OFFBOARD = 14  # PX4 vehicle_status.nav_state
+
+
+@pytest.fixture(scope="session")
+def sitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return px4_build("sitl", tmp_path_factory.mktemp("px4"))
+
+
+@pytest.fixture(scope="session")
+def hitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return px4_build("hitl", tmp_path_factory.mktemp("px4"))
+
+
+def hil_run(*args: str, runs: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "hil.cli", "run", *args, "--runs", str(runs), "--no-telemetry"],
+                          capture_output=True, text=True, timeout=timeout, cwd=ROOT)
+
+
+def only_run_dir(runs: Path) -> Path:
+    dirs = [p for p in runs.iterdir() if p.is_dir()]
+    assert len(dirs) == 1, dirs
+    return dirs[0]
+
+
+def processes_using(path: Path) -> list[str]:
+    """Command lines of live processes that mention `path` (PX4's rootfs is in the run directory)."""
+    found = []
+    for proc in Path("/proc").iterdir():
+        if not proc.name.isdigit():
+            continue
+        try:
+            cmdline = (proc / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            state = (proc / "stat").read_text().split(") ")[-1][:1]
+        except OSError:
+            continue
+        if str(path) in cmdline and state != "Z":
+            found.append(cmdline)
+    return found
+
+
+def flight_log(run_dir: Path) -> ULog:
+    logs = sorted((run_dir / "px4" / "log").rglob("*.ulg"))
+    assert logs, f"PX4 wrote no ULog under {run_dir / 'px4' / 'log'}"
+    return ULog(str(logs[-1]), ["vehicle_status", "vehicle_land_detected", "vehicle_command_ack"])
+
+
+def first_after(t_us: Any, values: Any, wanted: int, after_us: int) -> int:
+    hits = [int(t) for t, v in zip(t_us, values) if v == wanted and t > after_us]
+    assert hits, f"value {wanted} never seen after t = {after_us} us"
+    return hits[0]
+
+
+def assert_px4_flew_the_whole_flight(ulog: ULog) -> None:
+    """From PX4's own log: armed, then OFFBOARD, took off, landed, and disarmed, in that order."""
+    status = ulog.get_dataset("vehicle_status").data
+    land = ulog.get_dataset("vehicle_land_detected").data
+    armed = first_after(status["timestamp"], status["arming_state"], ARMING_STATE_ARMED, 0)
+    offboard = first_after(status["timestamp"], status["nav_state"], NAV_STATE_OFFBOARD, armed - 1)
+    took_off = first_after(land["timestamp"], land["landed"], 0, armed)
+    landed = first_after(land["timestamp"], land["landed"], 1, took_off)
+    disarmed = first_after(status["timestamp"], status["arming_state"], ARMING_STATE_DISARMED, landed - 1)
+    assert armed <= offboard < landed < disarmed + 1
+    assert status["arming_state"][-1] == ARMING_STATE_DISARMED
+
+
+def recorded(run_dir: Path, topic: str) -> list[dict[str, Any]]:
+    with open(run_dir / "recording.mcap", "rb") as f:
+        return [json.loads(m.data) for _, _, m in make_reader(f).iter_messages(topics=[topic])]
+
+
+def assert_every_ack_reached_the_bench(ulog: ULog, run_dir: Path) -> None:
+    acks = ulog.get_dataset("vehicle_command_ack").data
+    sent = Counter((int(c), int(r)) for c, r, comp in zip(acks["command"], acks["result"], acks["target_component"])
+                   if comp == BENCH_COMPONENT)
+    seen = Counter((m["command"], m["result"]) for m in recorded(run_dir, "hil/board")
+                   if m["message"] == "COMMAND_ACK")
+    assert sent, "PX4 logged no acknowledgement addressed to the bench"
+    assert not sent - seen, f"acknowledged by PX4 but missing from the recording: {sent - seen}"
+
+
+@pytest.mark.parametrize("scenario", ["hover", "gust"])
+def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario):
+    result = hil_run(f"scenarios/{scenario}.yaml", "--px4", str(sitl), runs=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    run_dir = only_run_dir(tmp_path)
+    ulog = flight_log(run_dir)
+    assert_px4_flew_the_whole_flight(ulog)
+    assert_every_ack_reached_the_bench(ulog, run_dir)
+    console = (run_dir / "px4.log").read_text()
+    assert "Simulator connected" in console
+    assert "poll timeout" not in console.split("Simulator connected", 1)[1]
+    assert not processes_using(run_dir)
+    texts = [m["text"] for m in recorded(run_dir, "hil/board") if m["message"] == "STATUSTEXT"]
+    assert "Landing detected" in texts  # STATUSTEXT reaches the bench: PX4 takes it for a GCS
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert set(metrics["board_estimate_error_m"]) == {"x", "y", "z"}
+
+
+def test_hitl_rehearsal_flies_the_serial_path_in_real_time(hitl, tmp_path):
+    result = hil_run("scenarios/hover.yaml", "--px4-hitl", str(hitl), runs=tmp_path)
+    assert result.returncode == 0, result.stdout + result.stderr
+    run_dir = only_run_dir(tmp_path)
+    assert_px4_flew_the_whole_flight(flight_log(run_dir))
+    assert not processes_using(run_dir)
+    timing = json.loads((run_dir / "metrics.json").read_text())["timing"]
+    assert set(timing["period_jitter_us"]) == {"p50", "p99", "max"}
+    assert "late_steps" in timing
+    sim_s, wall_s = timing["sim_s"], timing["wall_s"]
+    assert sim_s == pytest.approx(wall_s, rel=0.05)  # wall-clock pacing, as a Pixhawk needs
+
+
+def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
+    scenario = tmp_path / "nofix.yaml"  # no GPS fix: PX4's preflight checks never pass
+    scenario.write_text("name: nofix\nduration_s: 5\nsensors: {gps: {profile: px4_sitl, fix_type: 0}}\n")
+    result = hil_run(str(scenario), "--px4", str(sitl), runs=tmp_path / "runs")
+    assert result.returncode == 3, result.stdout + result.stderr
+    ended = next(line for line in result.stdout.splitlines() if line.startswith("ended:"))
+    assert "did not arm" in ended and "Arming denied" in ended
+    assert not processes_using(tmp_path / "runs")
+
+
+def free_port(kind: int = socket.SOCK_STREAM) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_a_px4_sitl_that_is_not_running_gets_a_sitl_error(tmp_path):
+    started = time.monotonic()
+    result = hil_run("scenarios/hover.yaml", "--port", f"tcpin:127.0.0.1:{free_port()}", "--mavlink",
+                     f"udpout:127.0.0.1:{free_port(socket.SOCK_DGRAM)}", "--connect-timeout", "2", runs=tmp_path)
+    assert result.returncode == 3
+    assert time.monotonic() - started < 15
+    ended = [line for line in result.stdout.splitlines() if line.startswith("ended:")]
+    assert len(ended) == 1 and "PX4 SITL" in ended[0] and "SYS_HITL" not in ended[0]
+
+
+def test_a_directory_without_px4_is_bad_input(tmp_path):
+    result = hil_run("scenarios/hover.yaml", "--px4", str(tmp_path), runs=tmp_path / "runs")
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and "bin/px4" in result.stderr
+    assert not (tmp_path / "runs").exists()
+
+
+def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):
+    runs = [subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(sitl),
+                              "--runs", str(tmp_path / str(i)), "--no-telemetry"], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True, cwd=ROOT) for i in range(2)]
+    outputs = [run.communicate(timeout=400) for run in runs]
+    for run, (out, err) in zip(runs, outputs):
+        assert run.returncode == 0, out + err
+    instances = {line.split("instance ")[1].split()[0] for out, _ in outputs for line in out.splitlines()
+                 if line.startswith("board:")}
+    assert len(instances) == 2, instances
+
+
+class PhaseWatch:
+    """Follows a run's phase over Zenoh (a real session on loopback) to interrupt it at a chosen moment."""
+
+    def __init__(self, phase: str) -> None:
+        self.endpoint = f"tcp/127.0.0.1:{free_port()}"
+        self.reached = threading.Event()
+        self._phase = phase
+        self._sub = subscribe("hil/*/state", self._on_state, ZenohOptions(listen=[self.endpoint],
+                                                                         multicast_scouting=False))
+
+    def _on_state(self, _key: str, sample: dict[str, Any]) -> None:
+        if sample.get("phase") == self._phase:
+            self.reached.set()
+
+    def close(self) -> None:
+        self._sub.close()
+
+
+@pytest.mark.parametrize("phase,second_ctrl_c", [("preflight", False), ("takeoff", False), ("mission", False),
+                                                 ("landing", False), ("landing", True)])
+def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, second_ctrl_c):
+    watch = PhaseWatch(phase)
+    try:
+        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(sitl),
+                                  "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        assert watch.reached.wait(120), f"the run never reached {phase}"
+    finally:
+        watch.close()
+    interrupted = time.monotonic()
+    bench.send_signal(signal.SIGINT)
+    if second_ctrl_c:  # a second Ctrl-C while the first one's shutdown runs
+        time.sleep(0.1)
+        bench.send_signal(signal.SIGINT)
+    out, err = bench.communicate(timeout=30)
+    assert bench.returncode == 130, out + err
+    assert time.monotonic() - interrupted < 2.0
+    run_dir = only_run_dir(tmp_path)
+    assert not processes_using(run_dir)
+    assert "interrupted" in (run_dir / "summary.txt").read_text()
+    with open(run_dir / "recording.mcap", "rb") as f:
+        reader = make_reader(f)
+        assert reader.get_summary() is not None  # closed properly: the indexed reader opens it
+        assert any(True for _ in reader.iter_messages(topics=["hil/state"]))
