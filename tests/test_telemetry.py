@@ -149,10 +149,13 @@ def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
     for i in range(20):
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         ctrl_c = i % 2 == 1
-        run = bench(scenario_file(tmp_path, duration=60.0 if ctrl_c else 0.5, altitude=1.0), tmp_path / f"r{i}",
-                    endpoint)
-        watcher = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-connect", endpoint],
+        # the watcher first: `watch --latest` follows the next run to start, and a 0.5 s run can be over
+        # before a watcher started after it has joined
+        watcher = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-listen", endpoint],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+        time.sleep(1.5)
+        run = bench(scenario_file(tmp_path, duration=60.0 if ctrl_c else 0.5, altitude=1.0), tmp_path / f"r{i}",
+                    endpoint, connect=True)
         if ctrl_c:
             time.sleep(4.0)
             run.send_signal(signal.SIGINT)
