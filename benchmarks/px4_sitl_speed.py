@@ -26,7 +26,6 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from firmware_interface import hil_codec as codec  # noqa: E402
-from firmware_interface.board import BoardKind, BoardSession  # noqa: E402
 from hil.connect import start_px4_sitl  # noqa: E402
 from hil.px4.build import Px4Build, find_build  # noqa: E402
 

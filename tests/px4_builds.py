@@ -19,14 +19,19 @@ SKIP_REASON = (f"real-PX4 tests skipped: set {ENV} to PX4-Autopilot/build (with 
                "px4_sitl_nolockstep built) or to a directory with the PX4 .tar.gz packages")
 
 
-def px4_build(kind: str, scratch: Path) -> Path:
+def px4_root() -> Path:
+    """The directory HIL_PX4_DIR names; called at module level, so an unset variable skips the whole
+    module with one line."""
     value = os.environ.get(ENV)
     if not value:
-        pytest.skip(SKIP_REASON)
-    root = Path(value).resolve()
+        pytest.skip(SKIP_REASON, allow_module_level=True)
+    return Path(value).resolve()
+
+
+def px4_build(root: Path, kind: str, scratch: Path) -> Path:
     if not root.is_dir():
-        pytest.fail(f"{ENV}={value}: no such directory")
+        pytest.fail(f"{ENV}={root}: no such directory")
     try:
         return find_build(root, kind, scratch)
     except Px4SetupError as exc:
-        pytest.fail(f"{ENV}={value}: {exc}")
+        pytest.fail(f"{ENV}={root}: {exc}")
