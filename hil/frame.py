@@ -28,3 +28,4 @@ class StepFrame:
     board: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # board messages of this step
     step_wall_s: float = 0.0
     round_trip_s: float | None = None
+    messages: list[tuple[str, dict[str, Any]]] | None = None  # the channel payloads, built once (recorder)

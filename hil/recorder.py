@@ -33,7 +33,14 @@ def _vec(out: Any, *names: str) -> list[float]:
 
 
 def frame_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
-    """The channel messages of one step (the same payloads go to the recording and to telemetry)."""
+    """The channel messages of one step (the same payloads go to the recording and to telemetry), built
+    once per frame whichever sink asks first."""
+    if frame.messages is None:
+        frame.messages = _build_messages(frame)
+    return frame.messages
+
+
+def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
     out, t = frame.truth, frame.t_us
     messages: list[tuple[str, dict[str, Any]]] = [
         ("state", {"t_us": t, "pos_ned": _vec(out, "pos_n", "pos_e", "pos_d"),
