@@ -33,10 +33,17 @@ SITL_HINT = ("is PX4 SITL running? Start it (in PX4-Autopilot: make px4_sitl non
 class BoardProcess(Protocol):
     def stop(self) -> None: ...
 
+    def exit_note(self) -> str | None: ...
+
 
 @dataclass
 class EmulatorProcess:
     popen: subprocess.Popen[bytes]
+    log_path: Path
+
+    def exit_note(self) -> str | None:
+        code = self.popen.poll()
+        return None if code is None else f"the emulator exited with code {code} (see {self.log_path})"
 
     def stop(self) -> None:
         if self.popen.poll() is None:
@@ -57,6 +64,10 @@ class BoardHandle:
     flight_code: str  # what flies: the emulator's controller, or PX4's own
     process: BoardProcess | None = None
     params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
+
+    def exit_note(self) -> str | None:
+        """Why the board's process ended, when the bench started it and it is gone (a board failure's cause)."""
+        return self.process.exit_note() if self.process is not None else None
 
     def close(self) -> None:
         """Stop what the bench started (PX4 included: nothing is left running), then close the links."""
@@ -98,7 +109,8 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> Boar
                              start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
     session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=watchdog_s)
     handle = BoardHandle(session, session, BoardKind.EMULATOR, f"emulator on {pair.slave_path}",
-                         f"emulator, controller {scenario.board.controller}", EmulatorProcess(popen))
+                         f"emulator, controller {scenario.board.controller}",
+                         EmulatorProcess(popen, run_dir / "emulator.log"))
     try:
         session.wait_heartbeat(15.0, hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
     except BaseException:

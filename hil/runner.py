@@ -122,6 +122,8 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
                           on_event=lambda t_us, text: [emit(t_us, text) for emit in events])
             result = bench.run()
             reason, code, metrics = result.reason, result.exit_code, result.metrics
+            if code == EXIT_BOARD and (note := handle.exit_note()):
+                reason = f"{reason}; {note}"
             final_t_us = bench.t_us
             if code == EXIT_OK:
                 px4 = handle.kind is not BoardKind.EMULATOR

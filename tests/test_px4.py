@@ -7,6 +7,7 @@ Needs HIL_PX4_DIR (see tests/px4_builds.py); CI sets it, and a missing PX4 fails
 from __future__ import annotations
 
 import json
+import os
 import signal
 import socket
 import subprocess
@@ -53,20 +54,25 @@ def only_run_dir(runs: Path) -> Path:
     return dirs[0]
 
 
-def processes_using(path: Path) -> list[str]:
-    """Command lines of live processes that mention `path` (PX4's rootfs is in the run directory)."""
-    found = []
+def live_processes() -> dict[int, list[str]]:
+    """pid -> argv of every live (not zombie) process."""
+    found = {}
     for proc in Path("/proc").iterdir():
         if not proc.name.isdigit():
             continue
         try:
-            cmdline = (proc / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            argv = (proc / "cmdline").read_bytes().decode(errors="replace").split("\0")
             state = (proc / "stat").read_text().split(") ")[-1][:1]
-        except OSError:
+        except OSError:  # gone meanwhile
             continue
-        if str(path) in cmdline and state != "Z":
-            found.append(cmdline)
+        if state != "Z":
+            found[int(proc.name)] = argv
     return found
+
+
+def processes_using(path: Path) -> list[str]:
+    """Command lines of live processes that mention `path` (PX4's rootfs is in the run directory)."""
+    return [" ".join(argv) for argv in live_processes().values() if str(path) in " ".join(argv)]
 
 
 def flight_log(run_dir: Path) -> ULog:
@@ -212,3 +218,26 @@ def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, 
         reader = make_reader(f)
         assert reader.get_summary() is not None  # closed properly: the indexed reader opens it
         assert any(True for _ in reader.iter_messages(topics=["hil/state"]))
+
+
+def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
+    watch = PhaseWatch("mission")
+    try:
+        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(sitl),
+                                  "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        assert watch.reached.wait(120), "the run never reached the mission"
+    finally:
+        watch.close()
+    run_dir = only_run_dir(tmp_path)
+    daemon = [pid for pid, argv in live_processes().items()
+              if argv[0].endswith("bin/px4") and str(run_dir / "px4") in argv]
+    assert len(daemon) == 1, daemon
+    os.kill(daemon[0], signal.SIGKILL)
+    out, err = bench.communicate(timeout=30)
+    assert bench.returncode == 3, out + err
+    ended = next(line for line in out.splitlines() if line.startswith("ended:"))
+    assert "PX4 was killed by signal 9" in ended
+    assert not processes_using(run_dir)
+    with open(run_dir / "recording.mcap", "rb") as f:
+        assert make_reader(f).get_summary() is not None

@@ -101,6 +101,13 @@ class Px4Process:
     def exit_code(self) -> int | None:
         return self.popen.poll()
 
+    def exit_note(self) -> str | None:
+        code = self.popen.poll()
+        if code is None:
+            return None
+        how = f"was killed by signal {-code}" if code < 0 else f"exited with code {code}"
+        return f"PX4 {how}: {self.log_tail() or 'no output'} (console: {self.log_path})"
+
     def log_tail(self, lines: int = 3) -> str:
         try:
             text = self.log_path.read_text(errors="replace")
