@@ -20,11 +20,21 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-_POSITIVE = {"mass", "Ixx", "Iyy", "Izz", "arm_length", "thrust_max", "integration_step"}
+_POSITIVE = {"mass", "Ixx", "Iyy", "Izz", "arm_length", "thrust_max", "integration_step", "rotor_speed_max"}
+_NON_NEGATIVE = {"rotor_drag_coeff", "induced_inflow_coeff", "translational_lift_coeff", "flapping_coeff",
+                 "parasitic_drag_area_x", "parasitic_drag_area_y", "parasitic_drag_area_z", "air_density"}
+
+
+def _parameter_field(name: str) -> Any:
+    if name in _POSITIVE:
+        return Field(None, gt=0)
+    return Field(None, ge=0) if name in _NON_NEGATIVE else None
+
+
 _VehicleParameters = create_model(  # one optional field per FMU parameter, so a typo names its own key
     "_VehicleParameters",
     __config__=ConfigDict(extra="forbid"),
-    **{name: (float | None, Field(None, gt=0) if name in _POSITIVE else None) for name in PARAMETER_NAMES},
+    **{name: (float | None, _parameter_field(name)) for name in PARAMETER_NAMES},
 )
 
 

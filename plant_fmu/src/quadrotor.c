@@ -91,24 +91,94 @@ static double total_mass(const Model *m) {
     return P(m, mass) + (payload > 0 ? payload : 0);
 }
 
-/* Translational acceleration in NED of a free (airborne) body in state x. */
-static void free_accel(const Model *m, const double *x, double acc[3]) {
-    double R[3][3], v_air_b[3], drag_b[3], f_b[3], v_air[3];
-    const double *thrust = x + X_T;
-    double T = thrust[0] + thrust[1] + thrust[2] + thrust[3];
-    double mass = total_mass(m);
-    quat_to_dcm(x + X_Q, R);
-    v_air[0] = x[X_VEL + 0] - m->r[VR_wind_n];
-    v_air[1] = x[X_VEL + 1] - m->r[VR_wind_e];
-    v_air[2] = x[X_VEL + 2] - m->r[VR_wind_d];
+/* Any rotor-aerodynamic or parasitic term on? Off, the model is exactly the one without them. */
+static int aero_on(const Model *m) {
+    return P(m, rotor_drag_coeff) != 0 || P(m, induced_inflow_coeff) != 0 || P(m, translational_lift_coeff) != 0 ||
+           P(m, flapping_coeff) != 0 || P(m, parasitic_drag_area_x) != 0 || P(m, parasitic_drag_area_y) != 0 ||
+           P(m, parasitic_drag_area_z) != 0;
+}
+
+/* Rotor speed from thrust through T = k_eta w^2 (signed for a reversible rotor). */
+static double rotor_speed(const Model *m, double thrust) {
+    double w = P(m, rotor_speed_max) * sqrt(fabs(thrust) / P(m, thrust_max)); /* sqrt(|T| / k_eta) */
+    return thrust < 0 ? -w : w;
+}
+
+/* Air velocity of the body in FRD: R^T (v - wind). */
+static void body_air_velocity(const Model *m, const double *x, double R[3][3], double v_air_b[3]) {
+    double v_air[3] = {x[X_VEL + 0] - m->r[VR_wind_n], x[X_VEL + 1] - m->r[VR_wind_e], x[X_VEL + 2] - m->r[VR_wind_d]};
     for (int i = 0; i < 3; i++)
         v_air_b[i] = R[0][i] * v_air[0] + R[1][i] * v_air[1] + R[2][i] * v_air[2];
-    drag_b[0] = -P(m, drag_coeff_x) * v_air_b[0];
-    drag_b[1] = -P(m, drag_coeff_y) * v_air_b[1];
-    drag_b[2] = -P(m, drag_coeff_z) * v_air_b[2];
-    f_b[0] = drag_b[0];
-    f_b[1] = drag_b[1];
-    f_b[2] = drag_b[2] - T;
+}
+
+/* The aerodynamic wrench in FRD beyond the linear body drag: per rotor, at its hub's air velocity
+ * v_h = v_air_b + w x r_i split into in-plane (x, y) and axial (z) parts, with rotor speed W:
+ *   rotor drag       F = -k_d W (v_hx, v_hy, 0)
+ *   induced inflow   thrust - k_z W v_climb, v_climb = -v_hz (the rotor climbing through the air)
+ *   transl. lift     thrust + k_h (v_hx^2 + v_hy^2)
+ *   blade flapping   M = -k_flap W (v_in x z_body)  (air from ahead pitches the nose up)
+ * and the body's parasitic drag -1/2 rho CdA |v_air| v_air per axis. `thrust_eff` gets each rotor's
+ * thrust with the inflow and lift changes; force and torque exclude the thrust itself. */
+static void aero_wrench(const Model *m, const double *x, const double v_air_b[3], double thrust_eff[4],
+                        double f_b[3], double tau_b[3]) {
+    const double *w = x + X_W, *thrust = x + X_T;
+    double a = P(m, arm_length) / sqrt(2.0);
+    double k_d = P(m, rotor_drag_coeff), k_z = P(m, induced_inflow_coeff);
+    double k_h = P(m, translational_lift_coeff), k_flap = P(m, flapping_coeff);
+    double half_rho = 0.5 * P(m, air_density);
+    double speed = sqrt(v_air_b[0] * v_air_b[0] + v_air_b[1] * v_air_b[1] + v_air_b[2] * v_air_b[2]);
+    f_b[0] = -half_rho * P(m, parasitic_drag_area_x) * speed * v_air_b[0];
+    f_b[1] = -half_rho * P(m, parasitic_drag_area_y) * speed * v_air_b[1];
+    f_b[2] = -half_rho * P(m, parasitic_drag_area_z) * speed * v_air_b[2];
+    tau_b[0] = tau_b[1] = tau_b[2] = 0;
+    for (int i = 0; i < 4; i++) {
+        double rx = a * ROTOR_X[i], ry = a * ROTOR_Y[i];
+        /* hub velocity: v + w x r with r = (rx, ry, 0) */
+        double vx = v_air_b[0] - w[2] * ry, vy = v_air_b[1] + w[2] * rx, vz = v_air_b[2] + w[0] * ry - w[1] * rx;
+        double spin = fabs(rotor_speed(m, thrust[i]));
+        double fx = -k_d * spin * vx, fy = -k_d * spin * vy;
+        thrust_eff[i] = thrust[i] - k_z * spin * (-vz) + k_h * (vx * vx + vy * vy);
+        f_b[0] += fx;
+        f_b[1] += fy;
+        tau_b[2] += rx * fy - ry * fx; /* r x F of the in-plane drag at the hub */
+        /* v_in x z_body = (vy, -vx, 0) */
+        tau_b[0] += -k_flap * spin * vy;
+        tau_b[1] += k_flap * spin * vx;
+    }
+}
+
+/* Body-frame force (thrust, drag, aerodynamics) and, if `tau` is given, torque, for state x. */
+static void body_wrench(const Model *m, const double *x, double R[3][3], double f_b[3], double *tau) {
+    double v_air_b[3];
+    const double *thrust = x + X_T;
+    body_air_velocity(m, x, R, v_air_b);
+    f_b[0] = -P(m, drag_coeff_x) * v_air_b[0];
+    f_b[1] = -P(m, drag_coeff_y) * v_air_b[1];
+    f_b[2] = -P(m, drag_coeff_z) * v_air_b[2];
+    if (!aero_on(m)) {
+        f_b[2] -= thrust[0] + thrust[1] + thrust[2] + thrust[3];
+        if (tau) rotor_torque(m, thrust, tau);
+        return;
+    }
+    double thrust_eff[4], f_aero[3], tau_aero[3];
+    aero_wrench(m, x, v_air_b, thrust_eff, f_aero, tau_aero);
+    for (int i = 0; i < 3; i++) f_b[i] += f_aero[i];
+    f_b[2] -= thrust_eff[0] + thrust_eff[1] + thrust_eff[2] + thrust_eff[3];
+    if (tau) {
+        double a = P(m, arm_length) / sqrt(2.0);
+        rotor_torque(m, thrust, tau); /* yaw drag torque of the rotors, from their thrust curve */
+        tau[0] = tau[1] = 0;
+        for (int i = 0; i < 4; i++) { /* roll and pitch from each rotor's effective thrust */
+            tau[0] += -a * ROTOR_Y[i] * thrust_eff[i];
+            tau[1] += a * ROTOR_X[i] * thrust_eff[i];
+        }
+        for (int i = 0; i < 3; i++) tau[i] += tau_aero[i];
+    }
+}
+
+/* Translational acceleration in NED from the body-frame force f_b (plus disturbance and gravity). */
+static void accel_from_force(const Model *m, double R[3][3], const double f_b[3], double acc[3]) {
+    double mass = total_mass(m);
     for (int i = 0; i < 3; i++) {
         double f_ned = R[i][0] * f_b[0] + R[i][1] * f_b[1] + R[i][2] * f_b[2];
         acc[i] = f_ned / mass;
@@ -116,6 +186,14 @@ static void free_accel(const Model *m, const double *x, double acc[3]) {
     acc[0] += m->r[VR_f_dist_n] / mass;
     acc[1] += m->r[VR_f_dist_e] / mass;
     acc[2] += m->r[VR_f_dist_d] / mass + P(m, g);
+}
+
+/* Translational acceleration in NED of a free (airborne) body in state x. */
+static void free_accel(const Model *m, const double *x, double acc[3]) {
+    double R[3][3], f_b[3];
+    quat_to_dcm(x + X_Q, R);
+    body_wrench(m, x, R, f_b, NULL);
+    accel_from_force(m, R, f_b, acc);
 }
 
 static double ground_d(const Model *m) { return -P(m, ground_height); }
@@ -132,8 +210,11 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
         memset(dx, 0, sizeof(double) * X_T);
         return;
     }
+    double R[3][3], f_b[3];
+    quat_to_dcm(q, R);
+    body_wrench(m, x, R, f_b, tau); /* one evaluation of the wrench serves both equations */
     for (int i = 0; i < 3; i++) dx[X_POS + i] = x[X_VEL + i];
-    free_accel(m, x, dx + X_VEL);
+    accel_from_force(m, R, f_b, dx + X_VEL);
 
     /* q_dot = 0.5 q (x) (0, w) */
     dx[X_Q + 0] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2]);
@@ -142,7 +223,6 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
     dx[X_Q + 3] = 0.5 * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0]);
 
     /* I w_dot = tau - w x I w */
-    rotor_torque(m, thrust, tau);
     tau[0] += m->r[VR_tau_dist_x];
     tau[1] += m->r[VR_tau_dist_y];
     tau[2] += m->r[VR_tau_dist_z];
@@ -213,6 +293,7 @@ static void update_outputs(Model *m) {
     for (int i = 0; i < 4; i++) {
         m->r[VR_q_w + i] = q[i];
         m->r[VR_thrust_1 + i] = x[X_T + i];
+        m->r[VR_rotor_speed_1 + i] = rotor_speed(m, x[X_T + i]);
         thrust_total += x[X_T + i];
     }
     m->r[VR_thrust_total] = thrust_total;
@@ -269,6 +350,10 @@ static int parameters_valid(Model *m) {
     }
     if (!(P(m, arm_length) > 0 && P(m, thrust_max) > 0 && P(m, motor_tau) >= 0)) {
         log_msg(m, fmi2Error, "logStatusError", "arm_length, thrust_max must be > 0 and motor_tau >= 0");
+        return 0;
+    }
+    if (!(P(m, rotor_speed_max) > 0 && P(m, air_density) >= 0)) {
+        log_msg(m, fmi2Error, "logStatusError", "rotor_speed_max must be > 0 and air_density >= 0");
         return 0;
     }
     return 1;
