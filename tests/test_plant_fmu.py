@@ -8,12 +8,13 @@ import subprocess
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from plant_fmu import build
+from plant_fmu import Plant, build
 from plant_fmu.build import FmuBuildError, build_fmu, fmi_header_dir
 from plant_fmu.variables import INPUT_NAMES, OUTPUT_NAMES, PARAMETER_NAMES, VR
 
@@ -55,18 +56,46 @@ def test_fmu_ships_sources_with_a_build_description(fmu_path):
             "sources/buildDescription.xml", "binaries/linux64/Quadrotor.so"} <= listing
 
 
-def test_a_plain_c_host_loads_and_steps_the_binary(fmu_path, tmp_path):
+def c_host(fmu_path: Path, tmp_path: Path, steps: int, output: str, parameters: dict[str, float],
+           inputs: dict[str, float] | None = None) -> float:
+    """Run the FMU in the plain C host (a second FMI importer) and return one output at the end."""
     if shutil.which("cc") is None:
         pytest.fail("a C compiler is required to build the FMU, so it must be present here")
     host = tmp_path / "host"
-    subprocess.run(["cc", "-std=c99", "-I", str(fmi_header_dir()), str(HERE / "data" / "c_host.c"),
-                    "-o", str(host), "-ldl"], check=True)
+    if not host.exists():
+        subprocess.run(["cc", "-std=c99", "-I", str(fmi_header_dir()), str(HERE / "data" / "c_host.c"),
+                        "-o", str(host), "-ldl"], check=True)
     unzipped = extract(str(fmu_path), str(tmp_path / "fmu"))
     guid = read_model_description(str(fmu_path)).guid
-    result = subprocess.run([str(host), str(Path(unzipped) / "binaries/linux64/Quadrotor.so"), guid,
-                             str(VR["pos_d"])], capture_output=True, text=True)
+    result = subprocess.run([str(host), str(Path(unzipped) / "binaries/linux64/Quadrotor.so"), guid, str(steps),
+                             str(VR[output]), *(f"{VR[n]}={v!r}" for n, v in parameters.items()), "--",
+                             *(f"{VR[n]}={v!r}" for n, v in (inputs or {}).items())],
+                            capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
-    assert result.stdout.strip() == "pos_d=0.000000"  # resting on the ground with motors off
+    return float(result.stdout)
+
+
+def test_a_plain_c_host_loads_and_steps_the_binary(fmu_path, tmp_path):
+    assert c_host(fmu_path, tmp_path, 250, "pos_d", {}) == 0.0  # resting on the ground with motors off
+
+
+def test_the_c_host_and_fmpy_give_the_same_flight_with_rotor_aerodynamics(fmu_path, tmp_path):
+    """Climbing through a crosswind with the inspection quad's aerodynamics, 2 s: the same numbers from both
+    importers (both step the same binary; the check is that nothing depends on the host)."""
+    from hil.scenario.vehicles import INSPECTION_QUAD_AERO
+
+    inputs = {**{f"motor_cmd_{i}": 0.65 + 0.01 * i for i in range(1, 5)},
+              **{f"motor_health_{i}": 1.0 for i in range(1, 5)}, "wind_e": 4.0, "wind_d": -1.0}
+    with Plant(INSPECTION_QUAD_AERO) as plant:
+        u = np.zeros(len(plant.INPUT_NAMES))
+        for name, value in inputs.items():
+            u[plant.input_index[name]] = value
+        plant.set_inputs(u)
+        for _ in range(500):
+            out = plant.step(0.004)
+        expected = {name: float(out[plant.output_index[name]]) for name in ("pos_e", "pos_d", "roll", "yaw")}
+    for name, value in expected.items():
+        assert c_host(fmu_path, tmp_path, 500, name, INSPECTION_QUAD_AERO, inputs) == value
 
 
 def test_rebuilds_only_when_sources_change(tmp_path, monkeypatch):
