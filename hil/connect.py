@@ -14,7 +14,15 @@ from typing import Protocol
 import yaml
 
 from firmware_interface.board import BoardError, BoardKind, BoardSession
-from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link, open_pty_pair, parse_connection
+from firmware_interface.link import (
+    FrameTap,
+    Link,
+    LinkError,
+    TcpServerTransport,
+    open_link,
+    open_pty_pair,
+    parse_connection,
+)
 from hil.px4 import Px4Build, Px4Process, claim_instance
 from hil.px4.hitl_startup import write_hitl_startup
 from hil.scenario.schema import Scenario
@@ -99,7 +107,7 @@ def emulator_config(scenario: Scenario) -> dict:
     return config
 
 
-def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> BoardHandle:
+def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
     config_path = run_dir / "emulator.yaml"
     config_path.write_text(yaml.safe_dump(emulator_config(scenario), sort_keys=False))
     pair = open_pty_pair()
@@ -107,7 +115,7 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> Boar
     popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
                               "--config", str(config_path)], stdout=log, stderr=log,
                              start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
-    session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=watchdog_s)
+    session = BoardSession(Link(pair.master, tap=tap), BoardKind.EMULATOR, watchdog_s=watchdog_s)
     handle = BoardHandle(session, session, BoardKind.EMULATOR, f"emulator on {pair.slave_path}",
                          f"emulator, controller {scenario.board.controller}",
                          EmulatorProcess(popen, run_dir / "emulator.log"))
@@ -121,13 +129,14 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float) -> Boar
     return handle
 
 
-def open_board(port: str, mavlink: str | None, watchdog_s: float, wait_s: float | None = None) -> BoardHandle:
+def open_board(port: str, mavlink: str | None, watchdog_s: float, wait_s: float | None = None,
+               tap: FrameTap | None = None) -> BoardHandle:
     """A board the user attached: a Pixhawk on a serial port (HITL), or a PX4 SITL started by hand (which
     may be started after the bench: it gets `wait_s`, by default MANUAL_SITL_WAIT_S, to connect)."""
     connection = parse_connection(port)
     kind = BoardKind.HITL if connection.kind == "serial" else BoardKind.SITL
-    session = BoardSession(open_link(port), kind, watchdog_s=watchdog_s)
-    commands = BoardSession(open_link(mavlink), kind, watchdog_s=watchdog_s) if mavlink else session
+    session = BoardSession(open_link(port, tap=tap), kind, watchdog_s=watchdog_s)
+    commands = BoardSession(open_link(mavlink, tap=tap), kind, watchdog_s=watchdog_s) if mavlink else session
     description = f"{kind.value} on {port}" + (f", commands on {mavlink}" if mavlink else "")
     handle = BoardHandle(session, commands, kind, description, "the board's own (PX4)")
     try:
@@ -160,7 +169,7 @@ def _reserve_simulator_port(instance: int) -> TcpServerTransport | None:
         return None
 
 
-def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHandle:
+def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
     """PX4 SITL from `build` on a free instance, its rootfs (and ULogs) in `run_dir/px4`, lockstep over TCP."""
     claim, listener = claim_instance(_reserve_simulator_port)
     n = claim.number
@@ -172,8 +181,8 @@ def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHa
         listener.close()
         claim.release()
         raise
-    session = BoardSession(Link(listener), BoardKind.SITL, watchdog_s=watchdog_s)
-    commands = BoardSession(open_link(f"udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}"), BoardKind.SITL,
+    session = BoardSession(Link(listener, tap=tap), BoardKind.SITL, watchdog_s=watchdog_s)
+    commands = BoardSession(open_link(f"udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}", tap=tap), BoardKind.SITL,
                             watchdog_s=watchdog_s)
     handle = BoardHandle(session, commands, BoardKind.SITL,
                          f"PX4 SITL instance {n} ({build.root}), simulator tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, "
@@ -188,7 +197,7 @@ def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHa
     return handle
 
 
-def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHandle:
+def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
     """PX4's HITL code path from `build` (a px4_sitl_nolockstep build) with its HIL link on a pty: the
     bench then flies the same serial path as with a Pixhawk on /dev/ttyACM0."""
     pair = open_pty_pair()
@@ -202,7 +211,7 @@ def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float) -> BoardHa
         pair.master.close()
         pair.release_slave()
         raise
-    session = BoardSession(Link(pair.master), BoardKind.HITL, watchdog_s=watchdog_s)
+    session = BoardSession(Link(pair.master, tap=tap), BoardKind.HITL, watchdog_s=watchdog_s)
     handle = BoardHandle(session, session, BoardKind.HITL,
                          f"PX4 HITL rehearsal, instance {claim.number} ({build.root}) on {pair.slave_path}",
                          "PX4 (its own estimator and controllers)", px4)

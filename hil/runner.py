@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from firmware_interface.board import BoardError, BoardKind
-from firmware_interface.link import LinkError
+from firmware_interface.link import FrameTap, LinkError, TlogWriter
 from hil.bench import EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERRUPTED, EXIT_OK, Bench, Sink
 from hil.connect import BoardHandle, open_board, px4_parameters, start_emulator, start_px4_hitl, start_px4_sitl
 from hil.px4 import Px4Build
@@ -53,19 +53,19 @@ def _board_label(options: RunOptions) -> str:
     return "emulator" if options.port is None else options.port
 
 
-def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path) -> BoardHandle:
-    """Start or connect the board the options name; returns once it has spoken."""
+def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path, tap: FrameTap | None = None) -> BoardHandle:
+    """Start or connect the board the options name; returns once it has spoken. `tap` sees every frame."""
     if options.px4 is not None:
-        handle = start_px4_sitl(options.px4, run_dir, options.watchdog_s)
+        handle = start_px4_sitl(options.px4, run_dir, options.watchdog_s, tap)
         handle.params = px4_parameters(scenario)
         return handle
     if options.px4_hitl is not None:
-        handle = start_px4_hitl(options.px4_hitl, run_dir, options.watchdog_s)
+        handle = start_px4_hitl(options.px4_hitl, run_dir, options.watchdog_s, tap)
         handle.params = px4_parameters(scenario)
         return handle
     if options.port is None:
-        return start_emulator(scenario, run_dir, options.watchdog_s)
-    return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s)
+        return start_emulator(scenario, run_dir, options.watchdog_s, tap)
+    return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s, tap)
 
 
 @contextmanager
@@ -99,9 +99,10 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
                    if options.port is None and options.px4 is None and options.px4_hitl is None
                    else "the board's own (PX4)")
     reason, code = "not started", EXIT_BOARD
+    tlog = TlogWriter(run_dir / "link.tlog")
     try:
         try:
-            handle = attach_board(scenario, options, run_dir)
+            handle = attach_board(scenario, options, run_dir, tlog)
             board_text, flight_code = handle.description, handle.flight_code
         except (BoardError, LinkError) as exc:
             reason, code = f"board/link failure: {exc}", EXIT_BOARD
@@ -133,6 +134,7 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
         with _sigint_deferred():
             if handle is not None:
                 handle.close()
+            tlog.close()
             summary = format_summary(scenario, board_text, flight_code, reason, code, metrics, failures)
             full_metrics = {"exit_code": code, "reason": reason, "expectations_failed": failures, **metrics}
             recorder.finish(full_metrics, summary)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from pymavlink.dialects.v20 import common
@@ -16,6 +16,7 @@ from firmware_interface.link.scanner import FrameScanner
 from firmware_interface.link.transports import Transport
 
 Message = common.MAVLink_message
+FrameTap = Callable[[bytes], None]  # sees every frame sent and every frame accepted, e.g. a TlogWriter
 
 
 class Link:
@@ -26,8 +27,9 @@ class Link:
     """
 
     def __init__(self, transport: Transport, system_id: int = 1, component_id: int = 1,
-                 partial_timeout_s: float = 0.02) -> None:
+                 partial_timeout_s: float = 0.02, tap: FrameTap | None = None) -> None:
         self.transport = transport
+        self.tap = tap
         self.name = transport.name
         self.encoder = FrameEncoder(system_id, component_id)
         self.scanner = FrameScanner(partial_timeout_s)
@@ -49,6 +51,8 @@ class Link:
     def send_frame(self, frame: bytes) -> None:
         self.bytes_out += len(frame)
         self.frames_out += 1
+        if self.tap is not None:
+            self.tap(frame)
         if self._batch is not None:
             self._batch += frame
         else:
@@ -72,6 +76,9 @@ class Link:
             data = self.transport.read(max(remaining, 0.0))
             self.bytes_in += len(data)
             frames = self.scanner.feed(data, time.monotonic())
+            if self.tap is not None:
+                for frame in frames:
+                    self.tap(frame)
             if frames or remaining <= 0:
                 return [m for m in (self._decode(f) for f in frames) if m is not None]
 
@@ -101,9 +108,9 @@ class Link:
         self.close()
 
 
-def open_link(connection: str, system_id: int = 1, component_id: int = 1) -> Link:
-    """Open a link from a connection string such as `/dev/ttyACM0` or `tcpin:0.0.0.0:4560`."""
-    return Link(open_transport(parse_connection(connection)), system_id, component_id)
+def open_link(connection: str, system_id: int = 1, component_id: int = 1, tap: FrameTap | None = None) -> Link:
+    """Open a link from a connection string such as `/dev/ttyACM0` or `tcpin:127.0.0.1:4560`."""
+    return Link(open_transport(parse_connection(connection)), system_id, component_id, tap=tap)
 
 
-__all__ = ["Link", "LinkLost", "Message", "open_link"]
+__all__ = ["FrameTap", "Link", "LinkLost", "Message", "open_link"]
