@@ -82,6 +82,7 @@ class BoardSession:
         self.clock = clock
         self.state = BoardState()
         self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
+        self.relay: list[bytes] | None = None  # when a list: the raw frames of every non-HIL message, for a GCS
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
@@ -123,6 +124,8 @@ class BoardSession:
         info = self.state.info
         if info is not None and msg.get_srcSystem() != info.system_id and kind != "HEARTBEAT":
             return
+        if self.relay is not None and not kind.startswith("HIL_"):
+            self.relay.append(bytes(msg.get_msgbuf()))
         if kind == "HIL_ACTUATOR_CONTROLS":
             self.actuators = codec.read_actuator_controls(msg, reversible=self.reversible_motors)
             if self.kind is not BoardKind.HITL:

@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from firmware_interface import hil_codec as codec
-from firmware_interface.geodesy import LocalFrame
 from firmware_interface.board import (
     FORCE_DISARM_MAGIC,
     MAV_CMD_COMPONENT_ARM_DISARM,
@@ -31,6 +30,7 @@ from firmware_interface.board import (
     BoardKind,
 )
 from firmware_interface.emulator.control import INTERNAL_KEYS
+from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import LinkError, Message
 from hil.connect import BoardHandle
 from hil.frame import StepFrame
@@ -193,6 +193,8 @@ class Bench:
             self.plant.close()
         metrics = self.metrics.compute(self.board.session.link.counters, self.realtime, self.dt)
         metrics["phase_reached"] = str(self.phase)
+        if self.board.gcs is not None:
+            metrics["gcs"] = self.board.gcs.counters()
         if self.board_offset_ned is not None:
             metrics["board_frame_offset_m"] = [float(v) for v in self.board_offset_ned]
         return RunResult(code, reason, metrics)
@@ -409,6 +411,8 @@ class Bench:
         session.link.flush()
         if self.board.commands is not session:
             self.board.commands.service(self.t_us * 1e-6 if session.lockstep else None)
+        if self.board.gcs is not None:
+            self._relay_gcs()
         self._flush_pending()  # the previous step's sinks run while the board computes this one
         t_sent = time.perf_counter()
         actuators = session.await_reply()
@@ -445,6 +449,17 @@ class Bench:
             self.metrics.add(frame)
             for sink in self.sinks:
                 sink(frame)
+
+    def _relay_gcs(self) -> None:
+        """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames."""
+        gcs, board = self.board.gcs, self.board
+        assert gcs is not None
+        for session in (board.session, board.commands) if board.commands is not board.session else (board.session,):
+            if session.relay:
+                gcs.to_gcs(session.relay)
+                session.relay = []
+        for frame in gcs.from_gcs():
+            board.commands.link.send_frame(frame)
 
     def _drain_inbox(self) -> list[Message]:
         messages = self.board.session.inbox

@@ -93,6 +93,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
         except ValueError:
             print(f"hil run: --telemetry-rate {item}: expected CHANNEL=HZ, e.g. state=50", file=sys.stderr)
             return EXIT_BAD_INPUT
+    from firmware_interface.link import LinkError, parse_connection
+
+    for endpoint in args.gcs or []:
+        try:
+            parse_connection(endpoint)
+        except LinkError as exc:
+            print(f"hil run: --gcs {endpoint}: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
     try:
         px4 = Px4Build.locate(args.px4, "--px4") if args.px4 else None
         px4_hitl = Px4Build.locate(args.px4_hitl, "--px4-hitl") if args.px4_hitl else None
@@ -100,7 +108,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"hil run: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, px4=px4, px4_hitl=px4_hitl,
-                         connect_timeout_s=args.connect_timeout,
+                         connect_timeout_s=args.connect_timeout, gcs=[] if args.no_gcs else args.gcs,
                          runs_root=Path(args.runs), telemetry=None if args.no_telemetry else _zenoh_options(args),
                          telemetry_rates_hz=rates)
     previous = signal.signal(signal.SIGTERM, _terminate)
@@ -231,6 +239,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--controller", choices=("smarc", "smpid", "backstepping"), help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--runs", default="runs", help="where run directories go (default runs/)")
+    run.add_argument("--gcs", action="append", metavar="ENDPOINT",
+                     help="relay the board's MAVLink to this ground station and back (repeatable; default "
+                          "udpout:127.0.0.1:14550 where the bench holds the board's port; PX4 SITL has its own)")
+    run.add_argument("--no-gcs", action="store_true", help="no ground-station relay")
     run.add_argument("--no-telemetry", action="store_true", help="do not publish on Zenoh")
     run.add_argument("--telemetry-rate", action="append", metavar="CHANNEL=HZ", help="e.g. state=100 (repeatable)")
     _add_zenoh_arguments(run)

@@ -23,6 +23,7 @@ from firmware_interface.link import (
     open_pty_pair,
     parse_connection,
 )
+from hil.gcs import GcsBridge
 from hil.px4 import Px4Build, Px4Process, claim_instance
 from hil.px4.hitl_startup import write_hitl_startup
 from hil.scenario.schema import Scenario
@@ -72,6 +73,12 @@ class BoardHandle:
     flight_code: str  # what flies: the emulator's controller, or PX4's own
     process: BoardProcess | None = None
     params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
+    gcs: GcsBridge | None = None  # relays the board's traffic to ground stations and back
+
+    def relay_to(self, gcs: GcsBridge) -> None:
+        self.gcs = gcs
+        for session in {id(self.session): self.session, id(self.commands): self.commands}.values():
+            session.relay = []
 
     def exit_note(self) -> str | None:
         """Why the board's process ended, when the bench started it and it is gone (a board failure's cause)."""
@@ -84,6 +91,8 @@ class BoardHandle:
         self.session.link.close()
         if self.commands is not self.session:
             self.commands.link.close()
+        if self.gcs is not None:
+            self.gcs.close()
 
 
 def px4_parameters(scenario: Scenario) -> dict[str, float]:

@@ -12,10 +12,25 @@ from typing import Any
 
 from firmware_interface.board import BoardError, BoardKind
 from firmware_interface.link import FrameTap, LinkError, TlogWriter
-from hil.bench import EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERRUPTED, EXIT_OK, Bench, Sink
-from hil.connect import BoardHandle, open_board, px4_parameters, start_emulator, start_px4_hitl, start_px4_sitl
-from hil.px4 import Px4Build
+from hil.bench import (
+    EXIT_BOARD,
+    EXIT_EXPECT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    Bench,
+    Sink,
+)
+from hil.connect import (
+    BoardHandle,
+    open_board,
+    px4_parameters,
+    start_emulator,
+    start_px4_hitl,
+    start_px4_sitl,
+)
+from hil.gcs import DEFAULT_GCS, GcsBridge
 from hil.metrics import check_expectations
+from hil.px4 import Px4Build
 from hil.recorder import Recorder, make_run_dir
 from hil.scenario.schema import Scenario
 from hil.telemetry import TelemetryPublisher, ZenohOptions, open_session
@@ -33,6 +48,7 @@ class RunOptions:
     watchdog_s: float = 1.0
     telemetry: ZenohOptions | None = field(default_factory=ZenohOptions)  # None: no telemetry
     telemetry_rates_hz: dict[str, float] = field(default_factory=dict)
+    gcs: list[str] | None = None  # ground-station endpoints; None: QGC's default where the bench holds the port
 
 
 @dataclass
@@ -51,6 +67,14 @@ def _board_label(options: RunOptions) -> str:
     if options.px4_hitl is not None:
         return f"PX4 HITL rehearsal from {options.px4_hitl.root}"
     return "emulator" if options.port is None else options.port
+
+
+def gcs_endpoints(options: RunOptions, kind: BoardKind) -> list[str]:
+    """Where the board's traffic is relayed: QGC's default for a board whose port the bench holds (serial,
+    HITL rehearsal, emulator); none for PX4 SITL, whose own GCS port 18570 -> 14550 QGC uses directly."""
+    if options.gcs is not None:
+        return options.gcs
+    return [] if kind is BoardKind.SITL else [DEFAULT_GCS]
 
 
 def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path, tap: FrameTap | None = None) -> BoardHandle:
@@ -104,6 +128,10 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
         try:
             handle = attach_board(scenario, options, run_dir, tlog)
             board_text, flight_code = handle.description, handle.flight_code
+            endpoints = gcs_endpoints(options, handle.kind)
+            if endpoints:
+                handle.relay_to(GcsBridge(endpoints))
+                board_text += f"; ground station relay to {', '.join(endpoints)}"
         except (BoardError, LinkError) as exc:
             reason, code = f"board/link failure: {exc}", EXIT_BOARD
         except KeyboardInterrupt:
