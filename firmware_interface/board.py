@@ -177,13 +177,23 @@ class BoardSession:
         deadline = self.clock() + timeout_s
         while self.state.info is None:
             if self.clock() > deadline:
-                raise BoardError(f"no heartbeat on {self.link.name} within {timeout_s:g} s — {hint}")
+                raise BoardError(f"no heartbeat on {self.link.name} within {timeout_s:g} s ({self._what_arrived()})"
+                                 f" — {hint}")
             if still_starting is not None:
                 still_starting()
             self.service()
             self.poll(0.05)
         self._last_rx = self.clock()
         return self.state.info
+
+    def _what_arrived(self) -> str:
+        """What the line carried while we waited: nothing at all, bytes but no frame (a wrong baud rate
+        shows as garbage), or frames but no autopilot heartbeat."""
+        if self.link.bytes_in == 0:
+            return "no bytes arrived at all"
+        if self.link.scanner.frames_accepted == 0:
+            return f"{self.link.bytes_in} bytes arrived but no MAVLink frame: a wrong baud rate?"
+        return f"{self.link.scanner.frames_accepted} MAVLink frames arrived, none a heartbeat from an autopilot"
 
     # --- sensors and actuators ----------------------------------------------------
     def send_sensors(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,

@@ -95,11 +95,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
             return EXIT_BAD_INPUT
     from firmware_interface.link import LinkError, parse_connection
 
-    for endpoint in args.gcs or []:
+    named = [("--gcs", e) for e in args.gcs or []] + [(o, v) for o, v in (("--port", args.port),
+                                                                           ("--mavlink", args.mavlink)) if v]
+    for option, endpoint in named:
         try:
-            parse_connection(endpoint)
+            parse_connection(endpoint, args.baud)
         except LinkError as exc:
-            print(f"hil run: --gcs {endpoint}: {exc}", file=sys.stderr)
+            print(f"hil run: {option} {endpoint}: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
     try:
         px4 = Px4Build.locate(args.px4, "--px4") if args.px4 else None
@@ -108,7 +110,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"hil run: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, px4=px4, px4_hitl=px4_hitl,
-                         connect_timeout_s=args.connect_timeout, gcs=[] if args.no_gcs else args.gcs,
+                         connect_timeout_s=args.connect_timeout, gcs=[] if args.no_gcs else args.gcs, baud=args.baud,
                          runs_root=Path(args.runs), telemetry=None if args.no_telemetry else _zenoh_options(args),
                          telemetry_rates_hz=rates)
     previous = signal.signal(signal.SIGTERM, _terminate)
@@ -187,18 +189,27 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _cmd_ports(args: argparse.Namespace) -> int:
     from serial.tools import list_ports
 
+    from firmware_interface.link.ports import pixhawk_maker
+
     ports = sorted(list_ports.comports(), key=lambda p: p.device)
     if not ports:
         print("no serial ports found (a Pixhawk on USB appears as /dev/ttyACM*)")
+    found = 0
     for port in ports:
-        print(f"{port.device}\t{port.description}\t{port.hwid}")
+        maker = pixhawk_maker(port.vid, port.description)
+        found += maker is not None
+        note = f"\tlooks like a Pixhawk ({maker}): hil run SCENARIO --port {port.device}" if maker else ""
+        print(f"{port.device}\t{port.description}\t{port.hwid}{note}")
+    if not found:
+        print("no Pixhawk found (PX4 boards enumerate on USB with the vendor ids of PX4, CubePilot or Holybro)")
     return EXIT_OK
 
 
-def _cmd_emulate(args: argparse.Namespace) -> int:
+def _emulate(argv: list[str]) -> int:
+    """`hil emulate ...` is the emulator's own command line (its options and --help), passed through whole."""
     from firmware_interface.emulator.__main__ import main as emulate
 
-    return emulate(args.emulator_args)
+    return emulate(argv)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -233,6 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
     board.add_argument("--px4-hitl", metavar="DIR", help="start PX4's HITL code path from this px4_sitl_nolockstep "
                                                          "build on a pty (wall-clock, the serial path)")
     run.add_argument("--mavlink", help="separate command link (PX4 SITL: udpout:127.0.0.1:14580)")
+    run.add_argument("--baud", type=int, help="serial baud rate where --port names none (default 921600)")
     run.add_argument("--connect-timeout", type=float, metavar="S",
                      help="seconds to wait for a board you attached (default 60 for PX4 SITL, 10 for serial)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
@@ -273,16 +285,17 @@ def build_parser() -> argparse.ArgumentParser:
     compare.set_defaults(func=_cmd_compare)
     ports = sub.add_parser("ports", help="list serial ports (where a Pixhawk shows up)")
     ports.set_defaults(func=_cmd_ports)
-    emulate = sub.add_parser("emulate", add_help=False,
-                             help="run the software flight controller on a port (see hil emulate --help)")
-    emulate.add_argument("emulator_args", nargs=argparse.REMAINDER)
-    emulate.set_defaults(func=_cmd_emulate)
+    sub.add_parser("emulate", add_help=False, help="run the software flight controller on a port "
+                                                   "(hil emulate --help)")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     from plant_fmu.build import FmuBuildError
 
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["emulate"]:
+        return _emulate(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))

@@ -139,12 +139,12 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: Fr
 
 
 def open_board(port: str, mavlink: str | None, watchdog_s: float, wait_s: float | None = None,
-               tap: FrameTap | None = None) -> BoardHandle:
+               tap: FrameTap | None = None, baud: int | None = None) -> BoardHandle:
     """A board the user attached: a Pixhawk on a serial port (HITL), or a PX4 SITL started by hand (which
     may be started after the bench: it gets `wait_s`, by default MANUAL_SITL_WAIT_S, to connect)."""
-    connection = parse_connection(port)
+    connection = parse_connection(port, baud)
     kind = BoardKind.HITL if connection.kind == "serial" else BoardKind.SITL
-    session = BoardSession(open_link(port, tap=tap), kind, watchdog_s=watchdog_s)
+    session = BoardSession(open_link(port, tap=tap, baud=baud), kind, watchdog_s=watchdog_s)
     commands = BoardSession(open_link(mavlink, tap=tap), kind, watchdog_s=watchdog_s) if mavlink else session
     description = f"{kind.value} on {port}" + (f", commands on {mavlink}" if mavlink else "")
     handle = BoardHandle(session, commands, kind, description, "the board's own (PX4)")

@@ -42,6 +42,7 @@ class RunOptions:
     mavlink: str | None = None  # PX4 SITL: a separate MAVLink link for commands (e.g. udpout:127.0.0.1:14580)
     realtime: bool = False
     connect_timeout_s: float | None = None  # a board the user attached: how long to wait for it
+    baud: int | None = None  # serial rate where --port names none
     px4: Px4Build | None = None  # the bench starts PX4 SITL from this build (lockstep)
     px4_hitl: Px4Build | None = None  # the bench starts PX4's HITL code path from this build on a pty
     runs_root: Path = Path("runs")
@@ -89,7 +90,7 @@ def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path, tap: Fr
         return handle
     if options.port is None:
         return start_emulator(scenario, run_dir, options.watchdog_s, tap)
-    return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s, tap)
+    return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s, tap, options.baud)
 
 
 @contextmanager

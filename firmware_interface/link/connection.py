@@ -17,10 +17,11 @@ from firmware_interface.link.transports import (
 
 DEFAULT_BAUD = 921600
 Kind = Literal["serial", "tcpin", "tcp", "udpin", "udpout"]
-USAGE = ("use a serial device (/dev/ttyACM0 or serial:/dev/ttyACM0[:BAUD]), "
-         "tcpin:HOST:PORT, tcp:HOST:PORT, udpin:HOST:PORT or udpout:HOST:PORT")
-_NET = re.compile(r"^(tcpin|tcp|udpin|udpout):([^:]+):(\d{1,5})$")
-_SERIAL = re.compile(r"^serial:(/[^:]+)(?::(\d+))?$")
+USAGE = ("use a serial device (/dev/ttyACM0, /dev/ttyACM0,921600 or serial:/dev/ttyACM0[:BAUD]), "
+         "tcpin:HOST:PORT, tcp:HOST:PORT, udpin:HOST:PORT (or udp:HOST:PORT, as mavutil) or udpout:HOST:PORT")
+_NET = re.compile(r"^(tcpin|tcp|udpin|udpout|udp):([^:]+):(\d{1,5})$")
+_SERIAL = re.compile(r"^serial:(/[^:,]+)(?::(\d+))?$")
+_DEVICE = re.compile(r"^(/[^:,]+)(?:,(\d+))?$")  # mavutil/MAVProxy: /dev/ttyACM0,921600
 
 
 @dataclass(frozen=True)
@@ -33,17 +34,17 @@ class Connection:
         return f"{self.kind}:{self.address}:{self.number}"
 
 
-def parse_connection(text: str) -> Connection:
-    """Parse a connection string; a one-line LinkError for anything else."""
-    if text.startswith("/"):
-        return Connection("serial", text, DEFAULT_BAUD)
-    if m := _SERIAL.match(text):
-        return Connection("serial", m.group(1), int(m.group(2) or DEFAULT_BAUD))
+def parse_connection(text: str, baud: int | None = None) -> Connection:
+    """Parse a connection string as PX4 users type them (mavutil's forms included); `baud` is the serial
+    rate where the string names none. A one-line LinkError for anything else."""
+    if (m := _DEVICE.match(text)) or (m := _SERIAL.match(text)):
+        return Connection("serial", m.group(1), int(m.group(2) or baud or DEFAULT_BAUD))
     if m := _NET.match(text):
         port = int(m.group(3))
         if port > 65535:
             raise LinkError(f"bad port in '{text}': {port} is above 65535")
-        return Connection(m.group(1), m.group(2), port)  # type: ignore[arg-type]
+        kind = "udpin" if m.group(1) == "udp" else m.group(1)  # mavutil's udp: listens
+        return Connection(kind, m.group(2), port)  # type: ignore[arg-type]
     raise LinkError(f"unsupported connection '{text}': {USAGE}")
 
 

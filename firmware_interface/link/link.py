@@ -108,9 +108,10 @@ class Link:
         self.close()
 
 
-def open_link(connection: str, system_id: int = 1, component_id: int = 1, tap: FrameTap | None = None) -> Link:
+def open_link(connection: str, system_id: int = 1, component_id: int = 1, tap: FrameTap | None = None,
+              baud: int | None = None) -> Link:
     """Open a link from a connection string such as `/dev/ttyACM0` or `tcpin:127.0.0.1:4560`."""
-    return Link(open_transport(parse_connection(connection)), system_id, component_id, tap=tap)
+    return Link(open_transport(parse_connection(connection, baud)), system_id, component_id, tap=tap)
 
 
 __all__ = ["FrameTap", "Link", "LinkLost", "Message", "open_link"]

@@ -89,6 +89,8 @@ class SerialTransport(FdTransport):
     lost_reason = "the port went away (unplugged or closed)"
 
     def __init__(self, path: str, baud: int = 921600) -> None:
+        if not os.path.exists(path):
+            raise LinkError(f"no device {path}: is the board plugged in and powered? (`hil ports` lists the ports)")
         try:
             self._port = serial.Serial(path, baud, bytesize=8, parity="N", stopbits=1, timeout=0,
                                        rtscts=False, xonxoff=False, exclusive=True)
