@@ -33,7 +33,7 @@ def test_handshake_reports_what_the_board_is(board):
 def test_no_heartbeat_gives_the_actionable_message():
     scripted = ScriptedBoard(send_heartbeat=False)
     session = BoardSession(scripted.start(), BoardKind.HITL)
-    with pytest.raises(BoardError, match="no heartbeat on .* within 0.3 s — is SYS_HITL=1 set"):
+    with pytest.raises(BoardError, match=r"no heartbeat on .* within 0.3 s \(no bytes arrived at all\) — is SYS_HITL=1 set"):
         session.wait_heartbeat(0.3)
     scripted.stop()
 

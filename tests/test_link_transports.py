@@ -124,7 +124,7 @@ def test_connection_strings_px4_users_know(text, kind, address, number):
     assert (c.kind, c.address, c.number) == (kind, address, number)
 
 
-@pytest.mark.parametrize("text", ["COM3", "tcpin:4560", "http://x:1", "udp:1.2.3.4:5", "tcp:host:99999"])
+@pytest.mark.parametrize("text", ["COM3", "tcpin:4560", "http://x:1", "udp:1.2.3.4", "tcp:host:99999"])
 def test_other_connection_strings_are_refused_in_one_line(text):
     with pytest.raises(LinkError) as err:
         parse_connection(text)
@@ -132,7 +132,7 @@ def test_other_connection_strings_are_refused_in_one_line(text):
 
 
 def test_opening_a_missing_serial_port_is_a_clear_error():
-    with pytest.raises(LinkError, match="cannot open /dev/does-not-exist"):
+    with pytest.raises(LinkError, match="no device /dev/does-not-exist: is the board plugged in"):
         SerialTransport("/dev/does-not-exist")
 
 
