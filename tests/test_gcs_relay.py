@@ -64,3 +64,64 @@ def test_no_gcs_turns_the_relay_off_and_a_bad_endpoint_is_bad_input(tmp_path):
     metrics = json.loads(next((tmp_path / "runs").iterdir()).joinpath("metrics.json").read_text())
     board_line = next(line for line in run.stdout.splitlines() if line.startswith("board:"))
     assert "gcs" not in metrics and "relay" not in board_line
+
+
+class ParameterGcs(threading.Thread):
+    """A pymavlink GCS: on the board's first heartbeat it lists the parameters, then sets one."""
+
+    def __init__(self, port: int, name: str, value: float) -> None:
+        super().__init__(daemon=True)
+        self.link = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255, source_component=190)
+        self.name, self.value = name, value
+        self.params: dict[str, float] = {}
+        self.echo: float | None = None
+        self.extra: dict[str, object] = {}
+
+    def run(self) -> None:
+        link = self.link
+        if link.recv_match(type="HEARTBEAT", blocking=True, timeout=60) is None:
+            return
+        link.mav.heartbeat_send(6, 8, 0, 0, 0)
+        link.mav.param_request_list_send(1, 1)
+        while (msg := link.recv_match(type="PARAM_VALUE", blocking=True, timeout=5)) is not None:
+            self.params[msg.param_id] = msg.param_value
+            if len(self.params) == msg.param_count:
+                break
+        link.mav.param_set_send(1, 1, self.name.encode(), self.value, mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+        msg = link.recv_match(type="PARAM_VALUE", blocking=True, timeout=5)
+        self.echo = msg.param_value if msg is not None and msg.param_id == self.name else None
+        link.mav.mission_request_list_send(1, 1)
+        self.extra["mission"] = link.recv_match(type="MISSION_COUNT", blocking=True, timeout=5)
+        link.mav.command_long_send(1, 1, mavutil.mavlink.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
+        self.extra["version"] = link.recv_match(type="AUTOPILOT_VERSION", blocking=True, timeout=5)
+
+
+def test_a_gcs_reads_the_emulators_parameters_and_a_gain_it_sets_takes_effect(tmp_path):
+    """The GCS lowers SMARC's projection bound on m̂ to 1.05 kg before a 0.5 kg payload arrives: m̂ must then
+    run into the new bound and stay at it, while the true mass is 1.5 kg (it would follow it otherwise)."""
+    gcs = ParameterGcs(14562, "SMARC_MASS_MAX", 1.05)
+    gcs.start()
+    scenario = tmp_path / "payload.yaml"
+    scenario.write_text("name: payload\nduration_s: 12\nseed: 3\nreference: {type: hover, altitude_m: 3}\n"
+                        "payload: [{t_s: 5, mass_kg: 0.5}]\n")
+    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(tmp_path / "runs"),
+                          "--no-telemetry", "--gcs", "udpout:127.0.0.1:14562"], capture_output=True, text=True,
+                         timeout=300, cwd=ROOT)
+    gcs.join(10)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert {"SMARC_C1", "SMARC_GAMMA2", "SMARC_MASS_MAX", "SYS_HITL", "EKF2_GPS_DELAY", "MPC_LAND_SPEED"} <= set(gcs.params)
+    assert gcs.params["SMARC_MASS_MAX"] == 2.5 and gcs.params["EKF2_GPS_DELAY"] == 120.0
+    assert gcs.echo is not None and abs(gcs.echo - 1.05) < 1e-6
+    assert gcs.extra["mission"].count == 0 and gcs.extra["version"] is not None
+    from mcap.reader import make_reader
+
+    set_at, m_hat = None, []
+    with open(next((tmp_path / "runs").iterdir()) / "recording.mcap", "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages(topics=["hil/events", "hil/board"]):
+            sample = json.loads(message.data)
+            if channel.topic == "hil/events" and "SMARC_MASS_MAX set to 1.05" in sample["text"]:
+                set_at = sample["t_us"]
+            elif sample.get("message") == "DEBUG_FLOAT_ARRAY" and set_at is not None and sample["t_us"] > set_at:
+                m_hat.append(sample["values"]["m_hat"])
+    assert set_at is not None and m_hat
+    assert max(m_hat) <= 1.05 + 1e-6 and m_hat[-1] >= 1.04

@@ -20,6 +20,7 @@ from firmware_interface.emulator.control import ControlOutput, Setpoint, Vehicle
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.geometry import euler_to_quat, quat_to_euler
 from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.emulator.params import Parameter, parameter_table
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Link, LinkLost, Message
 
@@ -27,6 +28,12 @@ MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4 = 2, 12
 MAV_STATE_STANDBY, MAV_STATE_ACTIVE, MAV_STATE_BOOT = 3, 4, 1
 MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED = 0, 1, 2, 3
 MAV_CMD_NAV_LAND, MAV_CMD_DO_SET_MODE, MAV_CMD_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL = 21, 176, 400, 511
+MAV_CMD_REQUEST_MESSAGE, MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES = 512, 520
+MSG_ID_AUTOPILOT_VERSION = 148
+MAV_PARAM_TYPE_REAL32 = 9
+# MAVLINK2 | PARAM_FLOAT | SET_POSITION_TARGET_LOCAL_NED | COMMAND_INT | MISSION_INT: what a GCS may use
+CAPABILITIES = 8192 | 2 | 128 | 8 | 4
+FLIGHT_SW_VERSION = (0 << 24) | (1 << 16) | (0 << 8) | 255  # hil-bench emulator 0.1.0, release
 MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR, MAV_LANDED_STATE_LANDING = 1, 2, 4
 FORCE_DISARM_MAGIC = 21196  # COMPONENT_ARM_DISARM param2 that disarms in the air, as PX4's commander
 PX4_MAIN_MODE_POSCTL, PX4_MAIN_MODE_AUTO, PX4_MAIN_MODE_OFFBOARD = 3, 4, 6
@@ -39,7 +46,7 @@ LANDED_CLEARANCE_M = 0.3  # adaptation and integrators wait until the vehicle ha
 # PX4's land mode and multicopter land detector, in their default settings: descend at MPC_LAND_SPEED;
 # landed once vertical speed < LNDMC_Z_VEL_MAX, horizontal < LNDMC_XY_VEL_MAX and thrust low for
 # LNDMC_TRIG_TIME; disarm COM_DISARM_LAND after that.
-LAND_SPEED_M_S = 0.7
+LAND_SPEED_M_S = 0.7  # the default of MPC_LAND_SPEED, settable like it
 LAND_Z_VEL_MAX_M_S = 0.25
 LAND_XY_VEL_MAX_M_S = 1.5
 LAND_LOW_THRUST_FRACTION = 0.6  # of the hover thrust estimate (PX4's ground-contact limit with one)
@@ -78,6 +85,8 @@ class EmulatedBoard:
         self.last_output: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.last_control: ControlOutput | None = None
         self.stop_reason = ""
+        self.land_speed_m_s = LAND_SPEED_M_S
+        self.parameters: list[Parameter] = parameter_table(self)
 
     # --- main loop ----------------------------------------------------------------
     def run(self, should_stop: Callable[[], bool] = lambda: False) -> str:
@@ -113,6 +122,11 @@ class EmulatedBoard:
             self.truth = codec.read_hil_state_quaternion(msg)
         elif kind == "COMMAND_LONG":
             self._on_command(msg)
+        elif kind in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
+            self._on_param(msg)
+        elif kind == "MISSION_REQUEST_LIST":  # an empty mission: this board flies offboard setpoints
+            self.link.send("MISSION_COUNT", target_system=msg.get_srcSystem(), target_component=msg.get_srcComponent(),
+                           count=0, mission_type=msg.mission_type, opaque_id=0)
         elif kind == "SET_POSITION_TARGET_LOCAL_NED":
             self.setpoint = Setpoint(np.array((msg.x, msg.y, msg.z)), np.array((msg.vx, msg.vy, msg.vz)),
                                      np.array((msg.afx, msg.afy, msg.afz)), msg.yaw)
@@ -174,7 +188,7 @@ class EmulatedBoard:
             self.takeoff_d = float(state.pos_ned[2])
         self.airborne = self.airborne or state.pos_ned[2] < self.takeoff_d - LANDED_CLEARANCE_M
         if self.landing and self.hold is not None:
-            self.hold.pos_ned[2] += LAND_SPEED_M_S * dt  # a descent the ground ends, as PX4's land mode
+            self.hold.pos_ned[2] += self.land_speed_m_s * dt  # a descent the ground ends, as PX4's land mode
             setpoint = self.hold
         elif self.offboard and self.setpoint is not None:
             setpoint = self.setpoint
@@ -215,7 +229,7 @@ class EmulatedBoard:
         # hover thrust estimator gives its land detector
         nominal_n = self.config.vehicle.mass * self.config.vehicle.g
         self.hover_thrust_n = self.last_control.thrust_n if self.last_control is not None else nominal_n
-        self.hold = Setpoint(state.pos_ned.copy(), np.array((0.0, 0.0, LAND_SPEED_M_S)), np.zeros(3),
+        self.hold = Setpoint(state.pos_ned.copy(), np.array((0.0, 0.0, self.land_speed_m_s)), np.zeros(3),
                              float(state.eta[2]))
         self._status(SEVERITY_INFO, "Landing at current position")
         return MAV_RESULT_ACCEPTED
@@ -246,6 +260,10 @@ class EmulatedBoard:
                 result = MAV_RESULT_ACCEPTED
         elif msg.command == MAV_CMD_SET_MESSAGE_INTERVAL:
             result = MAV_RESULT_ACCEPTED
+        elif msg.command == MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES or (
+                msg.command == MAV_CMD_REQUEST_MESSAGE and int(msg.param1) == MSG_ID_AUTOPILOT_VERSION):
+            self._autopilot_version()
+            result = MAV_RESULT_ACCEPTED
         self.link.send("COMMAND_ACK", command=msg.command, result=result, progress=0, result_param2=0,
                        target_system=msg.get_srcSystem(), target_component=msg.get_srcComponent())
 
@@ -268,6 +286,36 @@ class EmulatedBoard:
         self.offboard = False
         self.landing = False
         self.landed_at_us = None
+
+    def _on_param(self, msg: Message) -> None:
+        """The MAVLink parameter protocol: every PARAM_VALUE carries its index and the count."""
+        kind = msg.get_type()
+        if kind == "PARAM_REQUEST_LIST":
+            for index in range(len(self.parameters)):
+                self._param_value(index)
+            return
+        name = msg.param_id.rstrip("\0") if isinstance(msg.param_id, str) else ""
+        index = next((i for i, p in enumerate(self.parameters) if p.name == name), -1)
+        if kind == "PARAM_REQUEST_READ" and index < 0 and 0 <= msg.param_index < len(self.parameters):
+            index = msg.param_index
+        if index < 0:
+            return  # unknown: PX4 does not answer either
+        parameter = self.parameters[index]
+        if kind == "PARAM_SET" and parameter.set is not None:
+            parameter.set(float(msg.param_value))
+            self._status(SEVERITY_INFO, f"{parameter.name} set to {parameter.get():g}")
+        self._param_value(index)  # for a read-only one, the unchanged value says it was not set
+
+    def _param_value(self, index: int) -> None:
+        parameter = self.parameters[index]
+        self.link.send("PARAM_VALUE", param_id=parameter.name, param_value=parameter.get(),
+                       param_type=MAV_PARAM_TYPE_REAL32, param_count=len(self.parameters), param_index=index)
+
+    def _autopilot_version(self) -> None:
+        self.link.send("AUTOPILOT_VERSION", capabilities=CAPABILITIES, flight_sw_version=FLIGHT_SW_VERSION,
+                       middleware_sw_version=0, os_sw_version=0, board_version=0,
+                       flight_custom_version=[0] * 8, middleware_custom_version=[0] * 8, os_custom_version=[0] * 8,
+                       vendor_id=0, product_id=0, uid=self.config.system_id, uid2=[0] * 18)
 
     # --- messages out -------------------------------------------------------------
     def _heartbeat(self) -> None:
