@@ -23,6 +23,7 @@ from mcap.reader import make_reader
 from pyulog import ULog
 
 from hil.telemetry import ZenohOptions, subscribe
+from tests.mavsdk_client import read_telemetry
 from tests.px4_builds import px4_build, px4_root
 
 PX4_ROOT = px4_root()
@@ -133,9 +134,17 @@ def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario)
     assert set(metrics["board_estimate_error_m"]) == {"x", "y", "z"}
 
 
-def test_hitl_rehearsal_flies_the_serial_path_in_real_time(hitl, tmp_path):
-    result = hil_run("scenarios/hover.yaml", "--px4-hitl", str(hitl), runs=tmp_path)
-    assert result.returncode == 0, result.stdout + result.stderr
+def test_hitl_rehearsal_flies_the_serial_path_in_real_time_and_a_gcs_sees_px4_through_the_relay(hitl, tmp_path):
+    bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4-hitl", str(hitl),
+                              "--runs", str(tmp_path), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14593"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        seen = read_telemetry(14593, 90, want_status_text=True)  # MAVSDK, as QGroundControl would connect
+    finally:
+        out, err = bench.communicate(timeout=300)
+    assert bench.returncode == 0, out + err
+    assert abs(seen["position"].latitude_deg - 47.397742) < 1e-3 and seen["armed"] is True
+    assert seen["flight_mode"] == "OFFBOARD" and seen["status_text"]  # PX4's own STATUSTEXT reached the GCS
     run_dir = only_run_dir(tmp_path)
     assert_px4_flew_the_whole_flight(flight_log(run_dir))
     assert not processes_using(run_dir)

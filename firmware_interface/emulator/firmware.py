@@ -9,6 +9,7 @@ SITL does). It knows only MAVLink bytes and its own configuration, never the pla
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 
@@ -341,6 +342,13 @@ class EmulatedBoard:
         pos, vel = state.pos_ned, state.vel_ned
         self.link.send("LOCAL_POSITION_NED", time_boot_ms=boot_ms, x=float(pos[0]), y=float(pos[1]), z=float(pos[2]),
                        vx=float(vel[0]), vy=float(vel[1]), vz=float(vel[2]))
+        origin = self.estimator.origin
+        if origin is not None:  # what a ground station draws on its map (PX4 streams it too)
+            lat, lon, alt = origin.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
+            self.link.send("GLOBAL_POSITION_INT", time_boot_ms=boot_ms, lat=round(lat * 1e7), lon=round(lon * 1e7),
+                           alt=round(alt * 1000), relative_alt=round(-float(pos[2]) * 1000),
+                           vx=round(float(vel[0]) * 100), vy=round(float(vel[1]) * 100), vz=round(float(vel[2]) * 100),
+                           hdg=round(math.degrees(yaw) % 360 * 100))
         out = self.last_control
         if out is None or not self.armed:
             return

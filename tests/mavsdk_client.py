@@ -1,0 +1,50 @@
+"""A real ground-station client for the tests: MAVSDK (its Python package runs its own mavsdk_server)."""
+
+from __future__ import annotations
+
+import asyncio
+import socket
+import warnings
+from typing import Any
+
+
+def free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+async def _read(udp_port: int, want_status_text: bool) -> dict[str, Any]:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)  # MAVSDK 3 asks to be pinned below 4: it is
+        from mavsdk import System
+    drone = System(port=free_tcp_port())
+    await drone.connect(system_address=f"udpin://127.0.0.1:{udp_port}")
+    async for state in drone.core.connection_state():
+        if state.is_connected:
+            break
+    seen: dict[str, Any] = {}
+    async for position in drone.telemetry.position():
+        seen["position"] = position
+        break
+    async for attitude in drone.telemetry.attitude_euler():
+        seen["attitude"] = attitude
+        break
+    async for armed in drone.telemetry.armed():
+        if armed:
+            seen["armed"] = armed
+            break
+    async for mode in drone.telemetry.flight_mode():
+        seen["flight_mode"] = str(mode)
+        break
+    if want_status_text:
+        async for text in drone.telemetry.status_text():
+            seen["status_text"] = text.text
+            break
+    return seen
+
+
+def read_telemetry(udp_port: int, timeout_s: float, want_status_text: bool = False) -> dict[str, Any]:
+    """Position, attitude, armed and flight mode (and a STATUSTEXT) as MAVSDK reports them from a vehicle
+    heard on udpin:127.0.0.1:PORT; what was read before the timeout."""
+    return asyncio.run(asyncio.wait_for(_read(udp_port, want_status_text), timeout_s))
