@@ -1,0 +1,72 @@
+"""Real-time factor of `hil run scenarios/hover.yaml` on the emulator with the ground-station relay on
+(a GCS listening on loopback receives everything) and with --no-gcs, alternating in one run; medians.
+
+Usage: python benchmarks/gcs_relay_speed.py [--rounds N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+class Gcs(threading.Thread):
+    """A plain UDP listener that takes every datagram, as QGroundControl would."""
+
+    def __init__(self) -> None:
+        super().__init__(daemon=True)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.settimeout(0.2)
+        self.port = self.sock.getsockname()[1]
+        self.datagrams = 0
+        self.stop = threading.Event()
+
+    def run(self) -> None:
+        while not self.stop.is_set():
+            try:
+                self.sock.recv(65535)
+                self.datagrams += 1
+            except TimeoutError:
+                pass
+
+
+def realtime_factor(extra: list[str], runs: Path) -> float:
+    subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--runs", str(runs),
+                    "--no-telemetry", *extra], check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+    run_dir = next(p for p in runs.iterdir() if p.is_dir())
+    return json.loads((run_dir / "metrics.json").read_text())["timing"]["realtime_factor"]
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args()
+    gcs = Gcs()
+    gcs.start()
+    relayed, plain = [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in range(args.rounds):
+            relayed.append(realtime_factor(["--gcs", f"udpout:127.0.0.1:{gcs.port}"], Path(tmp) / f"gcs{n}"))
+            plain.append(realtime_factor(["--no-gcs"], Path(tmp) / f"plain{n}"))
+            print(f"round {n + 1}: relay on {relayed[-1]:.2f}x, --no-gcs {plain[-1]:.2f}x")
+    gcs.stop.set()
+    on, off = statistics.median(relayed), statistics.median(plain)
+    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {args.rounds} rounds; {gcs.datagrams} datagrams "
+          "reached the GCS")
+    print(f"relay on {on:.2f}x real time, --no-gcs {off:.2f}x: ratio {on / off:.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
