@@ -84,6 +84,7 @@ class BoardSession:
         self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
         self.relay: list[bytes] | None = None  # when a list: the raw frames of every non-HIL message, for a GCS
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
+        self.wait_for_replies = True  # False: never wait for a reply, as with a real board (injected link faults)
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
         self._last_heartbeat_sent = -1e9
@@ -224,6 +225,11 @@ class BoardSession:
         self.send_sensors(readings, gps, truth)
         self._awaited_t_us = readings.t_us
 
+    @property
+    def waits_for_replies(self) -> bool:
+        """False for a board on its own clock (a Pixhawk, or any board behind injected link faults)."""
+        return self.kind is not BoardKind.HITL and self.wait_for_replies
+
     def await_reply(self) -> codec.ActuatorOutputs | None:
         """The actuator outputs for the step just sent.
 
@@ -233,7 +239,7 @@ class BoardSession:
         backlog of replies builds up. A real board (HITL) is never waited for: it runs on its
         own clock. Raises BoardError when the watchdog expires.
         """
-        if self.kind is BoardKind.HITL:
+        if not self.waits_for_replies:
             self._awaited_t_us = None
             self.poll(0.0)
             self.check_watchdog()

@@ -32,6 +32,7 @@ from firmware_interface.board import (
 from firmware_interface.emulator.control import INTERNAL_KEYS
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import LinkError, Message
+from firmware_interface.link.faults import FaultSpec, LinkFaults
 from hil.connect import BoardHandle
 from hil.frame import StepFrame
 from hil.metrics import MetricsCollector
@@ -51,7 +52,8 @@ LAND_RETRY_S = 1.0
 LANDING_TIMEOUT_S = 60.0  # from the land request to a confirmed disarm
 DISARM_AFTER_LANDED_S = 3.0  # PX4 disarms by itself 2 s after landing (COM_DISARM_LAND); ask after this
 DISARM_TIMEOUT_S = 5.0  # `end: disarm`: the forced disarm must be confirmed within this
-LANDED_HEIGHT_M = 0.2  # the board says landed: the true vehicle must be this close to the ground
+LANDED_HEIGHT_M = 0.2
+DISARMED_IN_FLIGHT_S = 0.25  # the board's outputs say disarmed this long during take-off or the mission  # the board says landed: the true vehicle must be this close to the ground
 
 EXIT_OK, EXIT_EXPECT_FAILED, EXIT_BOARD, EXIT_INTERRUPTED = 0, 1, 3, 130
 
@@ -139,6 +141,9 @@ class Bench:
         self.plant = Plant(parameters)
         board.session.reversible_motors = parameters.get("rotor_reversible", 0.0) > 0.5
         self.metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
+        self.link_faults = self._inject_link_faults(rng.spawn(1)[0]) if scenario.faults.link else []
+        self._disarmed_in_flight_since: float | None = None
+        self._failsafe_texts: list[tuple[float, str]] = []
         self.send_truth = board.kind is BoardKind.SITL or (
             board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth")
         self._inputs = np.zeros(len(Plant.INPUT_NAMES))
@@ -172,6 +177,25 @@ class Bench:
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
         self._sinks_started = 0.0
 
+    def _inject_link_faults(self, rng: np.random.Generator) -> list[LinkFaults]:
+        """The scenario's link faults on each link to the board. They are wall-clock effects (a board's
+        failsafe counts real time), so the run is paced in real time and never waits for a reply."""
+        specs = [FaultSpec(f.kind, f.direction, f.start_s, f.end_s, f.probability, f.burst_frames,
+                           f.delay_ms / 1000.0, f.jitter_ms / 1000.0, f.byte_error_rate)
+                 for f in self.scenario.faults.link]
+        faults = []
+        for session, stream in zip(self._sessions(), rng.spawn(2)):
+            session.link.faults = LinkFaults(specs, stream)
+            session.wait_for_replies = False
+            session.watchdog_s += session.link.faults.longest_outage_s()
+            faults.append(session.link.faults)
+        self.realtime = True
+        return faults
+
+    def _sessions(self) -> list[Any]:
+        board = self.board
+        return [board.session] if board.commands is board.session else [board.session, board.commands]
+
     # --- the run -----------------------------------------------------------------
     def run(self) -> RunResult:
         start_wall = self._started = time.perf_counter()
@@ -193,6 +217,13 @@ class Bench:
             self.plant.close()
         metrics = self.metrics.compute(self.board.session.link.counters, self.realtime, self.dt)
         metrics["phase_reached"] = str(self.phase)
+        if self.link_faults:
+            injected: dict[str, int] = {}
+            for faults in self.link_faults:
+                for key, count in faults.counts.items():
+                    injected[key] = injected.get(key, 0) + count
+            metrics["link_faults"] = {"injected": injected,
+                                      "board_failsafe": [{"t_s": t, "text": text} for t, text in self._failsafe_texts]}
         if self.board.gcs is not None:
             metrics["gcs"] = self.board.gcs.counters()
         if self.board_offset_ned is not None:
@@ -292,12 +323,26 @@ class Bench:
                                 (float(codec.MODE_FLAG_CUSTOM), float(PX4_CUSTOM_MAIN_MODE_OFFBOARD)))
         return self.plan.sample(self.mission_t if self.phase is Phase.TAKEOFF else -self.plan.takeoff_s)
 
+    def _judge_armed(self, now_s: float) -> None:
+        """A board that disarms in flight (a failsafe, a crash detector) ends the run: it would fall."""
+        if self.armed:
+            self._disarmed_in_flight_since = None
+            return
+        if self._disarmed_in_flight_since is None:
+            self._disarmed_in_flight_since = now_s
+        elif now_s - self._disarmed_in_flight_since > DISARMED_IN_FLIGHT_S:
+            texts = self._last_texts(2)
+            raise RunAborted(f"the board disarmed in flight at {self._disarmed_in_flight_since:.3f} s (mission time "
+                             f"{self.mission_t:.2f} s){': ' + texts if texts else ''}", EXIT_EXPECT_FAILED)
+
     def _takeoff(self, now_s: float) -> RefSample | None:
+        self._judge_armed(now_s)
         if self.mission_t >= 0:
             self._switch(Phase.MISSION, now_s)
         return self.plan.sample(self.mission_t)
 
     def _mission(self, now_s: float) -> RefSample | None:
+        self._judge_armed(now_s)
         if self.mission_t <= self.plan.duration_s:
             return self.plan.sample(self.mission_t)
         self._switch(Phase.DISARMING if self.scenario.end == "disarm" else Phase.LANDING, now_s)
@@ -385,6 +430,11 @@ class Bench:
     # --- one step -----------------------------------------------------------------
     def _step(self, reference: RefSample | None, mission_t: float) -> None:
         step_start = time.perf_counter()
+        session = self.board.session
+        if not session.waits_for_replies:  # a board on its own clock: take the reply that came while we slept
+            actuators = session.await_reply()
+            if actuators is not None:
+                self.motors, self.armed = actuators.motors, actuators.armed
         env = self.environment.sample(mission_t if self.phase in FLYING else -1.0)
         u = self._inputs
         u[self._motor_idx] = self.motors
@@ -400,7 +450,8 @@ class Bench:
         t_plant = time.perf_counter()
         truth = TrueState(self.t_us, out[self._pos], out[self._vel], out[self._quat], out[self._rates], out[self._force])
         readings, gps = self.sensors.step(truth, mission_t if mission_t > -math.inf else None)
-        session = self.board.session
+        for faults in self.link_faults:
+            faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = time.perf_counter()
         session.link.begin_batch()  # setpoint first, then sensors, in one write: the board flies this step
         if reference is not None:  # on this step's setpoint whatever the scheduling (and deterministically)
@@ -424,6 +475,8 @@ class Bench:
         for kind, payload in board:
             if kind == "STATUSTEXT":
                 self._event(f"board: {payload['text']}")
+                if "failsafe" in payload["text"].lower():
+                    self._failsafe_texts.append((self.t_us * 1e-6, payload["text"]))
             elif self.phase is not Phase.MISSION:
                 continue
             elif kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None:

@@ -12,6 +12,7 @@ from pymavlink.dialects.v20 import common
 from firmware_interface.link.connection import open_transport, parse_connection
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.errors import LinkLost
+from firmware_interface.link.faults import LinkFaults
 from firmware_interface.link.scanner import FrameScanner
 from firmware_interface.link.transports import Transport
 
@@ -30,6 +31,7 @@ class Link:
                  partial_timeout_s: float = 0.02, tap: FrameTap | None = None) -> None:
         self.transport = transport
         self.tap = tap
+        self.faults: LinkFaults | None = None  # injected between the bench and the board (scenario faults.link)
         self.name = transport.name
         self.encoder = FrameEncoder(system_id, component_id)
         self.scanner = FrameScanner(partial_timeout_s)
@@ -53,10 +55,11 @@ class Link:
         self.frames_out += 1
         if self.tap is not None:
             self.tap(frame)
+        wire = frame if self.faults is None else self.faults.outgoing(frame)
         if self._batch is not None:
-            self._batch += frame
-        else:
-            self.transport.write(frame)
+            self._batch += wire
+        elif wire:
+            self.transport.write(wire)
 
     def begin_batch(self) -> None:
         """Collect the frames sent from now on and write them at `flush()` in one piece: the board then
@@ -75,7 +78,11 @@ class Link:
             remaining = deadline - time.monotonic()
             data = self.transport.read(max(remaining, 0.0))
             self.bytes_in += len(data)
+            if self.faults is not None:
+                data = self.faults.incoming_bytes(data)
             frames = self.scanner.feed(data, time.monotonic())
+            if self.faults is not None:
+                frames = self.faults.incoming_frames(frames)
             if self.tap is not None:
                 for frame in frames:
                     self.tap(frame)

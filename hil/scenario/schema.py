@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator
+from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
 
 from hil.scenario.expressions import compile_expression
 from hil.sensors.faults import SensorFault
@@ -138,9 +138,36 @@ class MotorFault(_Model):
     health: float = Field(ge=0, le=1, description="thrust multiplier while the fault lasts")
 
 
+class LinkFault(_Model):
+    """A fault on the bench-board link between two mission times, in one direction or both. A scenario with
+    link faults is paced in real time (they are wall-clock effects: a board's failsafe counts real time)."""
+
+    kind: Literal["loss", "latency", "corruption", "outage"]
+    direction: Literal["to_board", "from_board", "both"] = "both"
+    start_s: float = Field(0.0, ge=0)
+    end_s: float = math.inf
+    probability: float = Field(0.0, ge=0, le=1, description="loss: chance that a frame starts a loss burst")
+    burst_frames: int = Field(1, ge=1, description="loss: frames lost together")
+    delay_ms: float = Field(0.0, ge=0, description="latency")
+    jitter_ms: float = Field(0.0, ge=0, description="latency: uniform, +-")
+    byte_error_rate: float = Field(0.0, ge=0, le=1, description="corruption: chance per byte of a flipped bit")
+
+    @model_validator(mode="after")
+    def _says_how_much(self) -> LinkFault:
+        needed = {"loss": self.probability, "latency": self.delay_ms + self.jitter_ms,
+                  "corruption": self.byte_error_rate, "outage": 1.0}[self.kind]
+        if needed <= 0:
+            field = {"loss": "probability", "latency": "delay_ms", "corruption": "byte_error_rate"}[self.kind]
+            raise ValueError(f"a {self.kind} fault needs {field} > 0")
+        if self.end_s <= self.start_s:
+            raise ValueError(f"end_s ({self.end_s:g}) must be after start_s ({self.start_s:g})")
+        return self
+
+
 class Faults(_Model):
     motors: list[MotorFault] = Field(default_factory=list)
     sensors: list[SensorFault] = Field(default_factory=list)
+    link: list[LinkFault] = Field(default_factory=list)
 
 
 class Board(_Model):
