@@ -117,6 +117,10 @@ class BoardSession:
         messages = self.link.receive(timeout_s)
         for msg in messages:
             self._handle(msg)
+        if self.link.passthrough:  # valid frames pymavlink cannot decode: a GCS may still read them
+            if self.relay is not None:
+                self.relay += self.link.passthrough
+            self.link.passthrough = []
         return messages
 
     def _handle(self, msg: Message) -> None:

@@ -215,7 +215,8 @@ def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str
                          f"late steps {timing['late_steps']}")
     link = metrics.get("link")
     if link:
-        errors = {k: v for k, v in link.items() if k not in ("frames_in", "frames_out", "bytes_in", "bytes_out") and v}
+        errors = {k: v for k, v in link.items()
+                  if k not in ("frames_in", "frames_out", "bytes_in", "bytes_out", "passed_through") and v}
         lines.append(f"link: {link.get('frames_in', 0)} frames in, {link.get('frames_out', 0)} out; "
                      f"errors: {errors or 'none'}")
     if scenario.expect is not None and code in (EXIT_OK, EXIT_EXPECT_FAILED):

@@ -6,10 +6,23 @@ import os
 import threading
 import time
 
+import fastcrc
 import pytest
 
-from firmware_interface.link import Link, LinkError, LinkLost, open_pty_pair, parse_connection
-from firmware_interface.link.transports import SerialTransport, TcpClientTransport, TcpServerTransport, UdpTransport
+from firmware_interface.link import (
+    Link,
+    LinkError,
+    LinkLost,
+    open_pty_pair,
+    parse_connection,
+)
+from firmware_interface.link.transports import (
+    FdTransport,
+    SerialTransport,
+    TcpClientTransport,
+    TcpServerTransport,
+    UdpTransport,
+)
 
 
 def drain(link: Link, count: int, timeout_s: float = 5.0) -> list:
@@ -151,3 +164,24 @@ def test_pty_slave_is_raw_so_binary_is_not_echoed():
     assert bench.receive(0.1) == []  # no echo of our own frame
     pair.release_slave()
     bench.close()
+
+
+def test_common_messages_pymavlink_lacks_are_passed_through_whole_not_counted_as_errors():
+    """LINK_NODE_STATUS (id 8), which PX4 sends and pymavlink 2.4 cannot decode: a v2 frame built by hand
+    with its CRC_EXTRA (117, from MAVLink's common.xml) is accepted, kept whole, and no error."""
+    payload = bytes(range(36))
+    header = bytes([36, 0, 0, 7, 1, 1, 8, 0, 0])
+    crc = fastcrc.crc16.mcrf4xx(header + payload + bytes([117]))
+    frame = bytes([0xFD]) + header + payload + crc.to_bytes(2, "little")
+    read_fd, write_fd = os.pipe()
+    link = Link(FdTransport(read_fd, "pipe"))
+    try:
+        os.write(write_fd, frame + frame[:-1] + bytes([frame[-1] ^ 1]))  # a good one, then one with a bad CRC
+        assert link.receive(0.2) == []
+        assert link.passthrough == [frame]
+        counters = link.counters
+        assert counters["passed_through"] == 1 and counters["unknown_id"] == 0 and counters["decode_errors"] == 0
+        assert counters["bad_crc"] == 1
+    finally:
+        link.close()
+        os.close(write_fd)

@@ -22,3 +22,24 @@ class MessageSpec:
 SPECS: dict[int, MessageSpec] = {
     msgid: MessageSpec(msgid, cls.crc_extra, cls.unpacker.size) for msgid, cls in common.mavlink_map.items()
 }
+
+# Common-dialect messages newer than pymavlink's generated dialect, which PX4 v1.15 sends on its onboard
+# links. The scanner validates them (CRC_EXTRA, maximum payload) and the link passes them through whole,
+# undecoded, to the tlog and the ground-station relay. Figures computed with pymavlink's own
+# generator (mavparse) from MAVLink's message_definitions/v1.0/common.xml at commit de1e078a.
+PASSTHROUGH: dict[int, tuple[str, int, int]] = {  # id: (name, CRC_EXTRA, maximum payload bytes)
+    8: ("LINK_NODE_STATUS", 117, 36),
+    290: ("ESC_INFO", 251, 46),
+    291: ("ESC_STATUS", 10, 57),
+    380: ("TIME_ESTIMATE_TO_TARGET", 232, 20),
+    410: ("EVENT", 160, 53),
+    411: ("CURRENT_EVENT_SEQUENCE", 106, 3),
+    436: ("CURRENT_MODE", 193, 9),
+}
+for _msgid, (_name, _crc_extra, _size) in PASSTHROUGH.items():
+    SPECS.setdefault(_msgid, MessageSpec(_msgid, _crc_extra, _size))
+
+
+def frame_msgid(frame: bytes) -> int:
+    """The message id of a whole v2 or v1 frame."""
+    return frame[7] | frame[8] << 8 | frame[9] << 16 if frame[0] == 0xFD else frame[5]

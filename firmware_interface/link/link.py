@@ -10,6 +10,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common
 
 from firmware_interface.link.connection import open_transport, parse_connection
+from firmware_interface.link.dialect import PASSTHROUGH, frame_msgid
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.errors import LinkLost
 from firmware_interface.link.faults import LinkFaults
@@ -37,6 +38,8 @@ class Link:
         self.scanner = FrameScanner(partial_timeout_s)
         self._decoder = common.MAVLink(None)
         self.decode_errors = 0
+        self.passthrough: list[bytes] = []  # valid frames of messages pymavlink cannot decode, kept whole
+        self.passed_through = 0
         self.bytes_in = 0
         self.bytes_out = 0
         self.frames_out = 0
@@ -90,6 +93,10 @@ class Link:
                 return [m for m in (self._decode(f) for f in frames) if m is not None]
 
     def _decode(self, frame: bytes) -> Message | None:
+        if frame_msgid(frame) in PASSTHROUGH:
+            self.passthrough.append(frame)
+            self.passed_through += 1
+            return None
         try:
             return self._decoder.decode(bytearray(frame))
         except Exception:  # noqa: BLE001 - pymavlink raises assorted types; the frame is dropped and counted
@@ -100,7 +107,8 @@ class Link:
     def counters(self) -> dict[str, int]:
         counts: Counter[str] = Counter(self.scanner.counts)
         counts.update(frames_in=self.scanner.frames_accepted, frames_out=self.frames_out,
-                      bytes_in=self.bytes_in, bytes_out=self.bytes_out, decode_errors=self.decode_errors)
+                      bytes_in=self.bytes_in, bytes_out=self.bytes_out, decode_errors=self.decode_errors,
+                      passed_through=self.passed_through)
         return dict(counts)
 
     def close(self) -> None:
