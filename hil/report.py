@@ -116,7 +116,10 @@ def report(run_dir: Path) -> list[Path]:
     return [f for f in figures if f is not None]
 
 
-def overlay_errors(runs: dict[str, RunData], out: Path, settle_s: float) -> Path:
+def overlay_errors(runs: dict[str, RunData], out: Path, settle_s: float, title: str = "position error by controller",
+                   name: str = "overlay_position_error.png",
+                   shaded: tuple[tuple[float, float], ...] = ()) -> Path:
+    """The position errors of several runs on one figure; `shaded` marks (start, end) mission-time spans."""
     fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
     for label, data in runs.items():
         for i, ax in enumerate(axes):
@@ -124,8 +127,10 @@ def overlay_errors(runs: dict[str, RunData], out: Path, settle_s: float) -> Path
     for i, ax in enumerate(axes):
         ax.set_ylabel(f"e {AXES[i]} (m)")
         ax.axvline(settle_s, color="grey", linestyle=":")
+        for start, end in shaded:
+            ax.axvspan(start, end, color="orange", alpha=0.15)
         ax.grid(True)
-    axes[0].legend()
-    axes[0].set_title("position error by controller")
+    axes[0].legend(fontsize=8)
+    axes[0].set_title(title, fontsize=10)
     axes[-1].set_xlabel("mission time (s)")
-    return _save(fig, out / "overlay_position_error.png")
+    return _save(fig, out / name)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import socket
 import subprocess
 import sys
 import threading
@@ -21,6 +22,7 @@ class Listener(threading.Thread):
     def __init__(self, port: int) -> None:
         super().__init__(daemon=True)
         self.link = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}")
+        self.link.port.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)  # a lockstep run is fast
         self.counts: Counter[str] = Counter()
         self.stop = threading.Event()
 
@@ -49,7 +51,9 @@ def test_a_gcs_receives_the_emulators_traffic_but_no_hil_frames(tmp_path):
     assert abs(listener.counts["HEARTBEAT"] - sim_s) <= 2
     assert listener.counts["ATTITUDE"] > 0 and listener.counts["COMMAND_ACK"] > 0
     assert not any(kind.startswith("HIL_") for kind in listener.counts)
-    assert metrics["gcs"]["frames_to_gcs"] == sum(listener.counts.values())
+    # UDP: a reader thread on a loaded machine may miss a few datagrams, but nothing may come that was not sent
+    received, relayed = sum(listener.counts.values()), metrics["gcs"]["frames_to_gcs"]
+    assert 0.98 * relayed <= received <= relayed
 
 
 def test_no_gcs_turns_the_relay_off_and_a_bad_endpoint_is_bad_input(tmp_path):

@@ -19,18 +19,6 @@ from firmware_interface.link.ports import pixhawk_maker
 ROOT = Path(__file__).resolve().parent.parent
 
 
-@pytest.mark.parametrize("text,kind,address,number", [
-    ("udp:0.0.0.0:14550", "udpin", "0.0.0.0", 14550),  # mavutil's listening form
-    ("/dev/ttyACM0,57600", "serial", "/dev/ttyACM0", 57600),  # MAVProxy's device,baud
-    ("/dev/ttyACM0", "serial", "/dev/ttyACM0", 921600),
-    ("serial:/dev/ttyAMA0:115200", "serial", "/dev/ttyAMA0", 115200),
-    ("tcpin:127.0.0.1:4560", "tcpin", "127.0.0.1", 4560),
-])
-def test_connection_strings(text, kind, address, number):
-    connection = parse_connection(text)
-    assert (connection.kind, connection.address, connection.number) == (kind, address, number)
-
-
 def test_baud_applies_where_the_string_names_none():
     assert parse_connection("/dev/ttyUSB0", baud=57600).number == 57600
     assert parse_connection("/dev/ttyUSB0,115200", baud=57600).number == 115200

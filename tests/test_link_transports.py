@@ -130,6 +130,8 @@ def test_a_fake_start_does_not_stall_frames_on_a_live_link():
         ("tcp:127.0.0.1:5760", "tcp", "127.0.0.1", 5760),
         ("udpin:0.0.0.0:14560", "udpin", "0.0.0.0", 14560),
         ("udpout:127.0.0.1:14550", "udpout", "127.0.0.1", 14550),
+        ("udp:0.0.0.0:14550", "udpin", "0.0.0.0", 14550),  # mavutil's listening form
+        ("/dev/ttyACM0,57600", "serial", "/dev/ttyACM0", 57600),  # MAVProxy's device,baud
     ],
 )
 def test_connection_strings_px4_users_know(text, kind, address, number):

@@ -14,14 +14,11 @@ from pathlib import Path
 
 import yaml
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
+from hil.report import overlay_errors  # noqa: E402
 from hil.rundata import load_run  # noqa: E402
 
 OUT = Path(__file__).resolve().parent
@@ -53,21 +50,8 @@ def main() -> None:
 
 
 def plot_and_tabulate(data: dict, suffix: str, what: str) -> None:
-    fig, axes = plt.subplots(3, 1, figsize=(9, 7.5), sharex=True)
-    for label, run in data.items():
-        for i, ax in enumerate(axes):
-            ax.plot(run.t, run.error[:, i], label=label, linewidth=1)
-    for i, ax in enumerate(axes):
-        ax.set_ylabel(f"e_{'xyz'[i]} = truth - ref (m)")
-        ax.grid(True)
-        for start, length in ((15, 2.0), (35, 3.0)):
-            ax.axvspan(start, start + length, color="orange", alpha=0.15)
-    axes[0].set_title(f"SMARC, gust.yaml, {what}: with and without rotor aerodynamics (gusts shaded)",
-                      fontsize=10)
-    axes[0].legend(loc="upper right", fontsize=8)
-    axes[-1].set_xlabel("mission time (s)")
-    fig.tight_layout()
-    fig.savefig(OUT / f"gust_error_with_and_without{suffix}.png", dpi=110)
+    overlay_errors(data, OUT, SETTLE_S, f"SMARC, gust.yaml, {what}: with and without rotor aerodynamics "
+                   "(gusts shaded)", f"gust_error_with_and_without{suffix}.png", ((15, 17), (35, 38)))
     print(f"\n{what}\n")
     print("| run | axis | RMS (m) | max abs (m) | max abs in gust 1 (15-20 s) | in gust 2 (35-41 s) |")
     print("|---|---|---|---|---|---|")
