@@ -184,17 +184,13 @@ class Bench:
                            f.delay_ms / 1000.0, f.jitter_ms / 1000.0, f.byte_error_rate)
                  for f in self.scenario.faults.link]
         faults = []
-        for session, stream in zip(self._sessions(), rng.spawn(2)):
+        for session, stream in zip(self.board.sessions, rng.spawn(2)):
             session.link.faults = LinkFaults(specs, stream)
             session.wait_for_replies = False
             session.watchdog_s += session.link.faults.longest_outage_s()
             faults.append(session.link.faults)
         self.realtime = True
         return faults
-
-    def _sessions(self) -> list[Any]:
-        board = self.board
-        return [board.session] if board.commands is board.session else [board.session, board.commands]
 
     # --- the run -----------------------------------------------------------------
     def run(self) -> RunResult:
@@ -507,7 +503,7 @@ class Bench:
         """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames."""
         gcs, board = self.board.gcs, self.board
         assert gcs is not None
-        for session in (board.session, board.commands) if board.commands is not board.session else (board.session,):
+        for session in board.sessions:
             if session.relay:
                 gcs.to_gcs(session.relay)
                 session.relay = []

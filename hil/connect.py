@@ -75,9 +75,14 @@ class BoardHandle:
     params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
     gcs: GcsBridge | None = None  # relays the board's traffic to ground stations and back
 
+    @property
+    def sessions(self) -> list[BoardSession]:
+        """Each link to the board once: the HIL link, and the command link when it is a separate one."""
+        return [self.session] if self.commands is self.session else [self.session, self.commands]
+
     def relay_to(self, gcs: GcsBridge) -> None:
         self.gcs = gcs
-        for session in {id(self.session): self.session, id(self.commands): self.commands}.values():
+        for session in self.sessions:
             session.relay = []
 
     def exit_note(self) -> str | None:
@@ -88,9 +93,8 @@ class BoardHandle:
         """Stop what the bench started (PX4 included: nothing is left running), then close the links."""
         if self.process is not None:
             self.process.stop()
-        self.session.link.close()
-        if self.commands is not self.session:
-            self.commands.link.close()
+        for session in self.sessions:
+            session.link.close()
         if self.gcs is not None:
             self.gcs.close()
 
