@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test fmu clean
+.PHONY: run test test-fast lint typecheck fmu paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,6 +21,20 @@ run: fmu
 
 test: fmu
 	$(BIN)/python -m pytest -q
+
+# the unit tests: no end-to-end run, no PX4, nothing slow (under a minute)
+test-fast: fmu
+	$(BIN)/python -m pytest -q -m "not e2e and not px4 and not slow"
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+typecheck: $(STAMP)
+	$(BIN)/mypy
+
+# docs/paper_reproduction.md and its figures, from flights of the code as it is (~15 min on 2 cores)
+paper: fmu
+	$(BIN)/python docs/paper_reproduction/build.py
 
 clean:
 	rm -rf $(VENV) build runs

@@ -16,12 +16,12 @@ import time
 import numpy as np
 from pymavlink.dialects.v20 import common
 
+from firmware_interface import hil_codec as codec
 from firmware_interface.board import BoardKind, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.transports import UdpTransport
-from firmware_interface import hil_codec as codec
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 
 G = 9.80665
@@ -48,13 +48,13 @@ def in_process(controller: str, frames: list[tuple[bytes, bytes | None]]) -> flo
                           build_config({"controller": controller}))
     decoder = common.MAVLink(None)
     settle = 750  # 3 s: the estimator settles, then the board is armed and flies on every sample
-    times = []
+    times: list[float] = []
     for k, (sensor, gps) in enumerate(frames):
         if gps:
             board.handle(decoder.decode(bytearray(gps)))
         if k == settle:
             board.setpoint = None
-            assert board._arm() == 0  # noqa: SLF001 - arming as COMMAND_LONG would, without a link round trip
+            assert board._arm() == 0
         start = time.perf_counter()
         board.handle(decoder.decode(bytearray(sensor)))
         if k > settle:
@@ -70,16 +70,16 @@ def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tup
     session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=2.0)
     session.wait_heartbeat(10.0)
     pair.release_slave()
-    times = []
+    times: list[float] = []
     for k, (sensor, gps) in enumerate(frames):
         if gps:
             session.link.send_frame(gps)
         if k == 750:
             session.arm(True, timeout_s=3.0)
-        session._awaited_t_us = 4000 * (k + 1)  # noqa: SLF001 - the frame is pre-encoded, as exchange() would wait
+        session._awaited_t_us = 4000 * (k + 1)
         start = time.perf_counter()
         session.link.send_frame(sensor)
-        while session._awaited_t_us is not None:  # noqa: SLF001
+        while session._awaited_t_us is not None:
             session.poll(1.0)
         if k > 750:
             times.append(time.perf_counter() - start)

@@ -7,17 +7,16 @@ Usage: python benchmarks/gcs_relay_speed.py [--rounds N]
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import socket
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from run_timing import realtime_factor
 
 
 class Gcs(threading.Thread):
@@ -41,13 +40,6 @@ class Gcs(threading.Thread):
                 pass
 
 
-def realtime_factor(extra: list[str], runs: Path) -> float:
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--runs", str(runs),
-                    "--no-telemetry", *extra], check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
-    run_dir = next(p for p in runs.iterdir() if p.is_dir())
-    return json.loads((run_dir / "metrics.json").read_text())["timing"]["realtime_factor"]
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
@@ -57,8 +49,10 @@ def main() -> int:
     relayed, plain = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for n in range(args.rounds):
-            relayed.append(realtime_factor(["--gcs", f"udpout:127.0.0.1:{gcs.port}"], Path(tmp) / f"gcs{n}"))
-            plain.append(realtime_factor(["--no-gcs"], Path(tmp) / f"plain{n}"))
+            relay = ["--no-telemetry", "--gcs", f"udpout:127.0.0.1:{gcs.port}"]
+            relayed.append(realtime_factor("scenarios/hover.yaml", relay, Path(tmp) / f"gcs{n}"))
+            plain.append(realtime_factor("scenarios/hover.yaml", ["--no-telemetry", "--no-gcs"],
+                                         Path(tmp) / f"plain{n}"))
             print(f"round {n + 1}: relay on {relayed[-1]:.2f}x, --no-gcs {plain[-1]:.2f}x")
     gcs.stop.set()
     on, off = statistics.median(relayed), statistics.median(plain)

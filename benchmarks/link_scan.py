@@ -11,10 +11,10 @@ from pymavlink.dialects.v20 import common
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from firmware_interface import hil_codec as codec  # noqa: E402
-from firmware_interface.link import FrameScanner  # noqa: E402
-from firmware_interface.link.encoder import FrameEncoder, message_class  # noqa: E402
-from tests.noisy_stream import make_noisy_stream  # noqa: E402
+from firmware_interface import hil_codec as codec
+from firmware_interface.link import FrameScanner
+from firmware_interface.link.encoder import FrameEncoder, message_class
+from tests.noisy_stream import make_noisy_stream
 
 N_FRAMES = 5000
 
@@ -34,7 +34,7 @@ def pymavlink_robust(data: bytes) -> tuple[int, float]:
     good = 0
     for i in range(0, len(data), 64):  # as a serial read loop would hand it over
         for msg in mav.parse_buffer(data[i : i + 64]) or []:
-            good += msg.get_type() not in ("BAD_DATA",) and not msg.get_type().startswith("UNKNOWN")
+            good += msg.get_type() != "BAD_DATA" and not msg.get_type().startswith("UNKNOWN")
     while (msg := mav.parse_char(b"")) is not None:
         good += msg.get_type() != "BAD_DATA" and not msg.get_type().startswith("UNKNOWN")
     return good, time.perf_counter() - start
@@ -63,7 +63,8 @@ def main() -> None:
           f"faults injected: {dict(noisy.injected)}")
     n_ours, t_ours = ours(noisy.data)
     n_py, t_py = pymavlink_robust(noisy.data)
-    print(f"  frames recovered   ours: {n_ours:5d}   pymavlink robust parser: {n_py:5d}   (intact: {len(noisy.frames)})")
+    print(f"  frames recovered   ours: {n_ours:5d}   pymavlink robust parser: {n_py:5d}"
+          f"   (intact: {len(noisy.frames)})")
     _, t_clean_ours = ours(clean.data)
     _, t_clean_py = pymavlink_robust(clean.data)
     print(f"  scan+decode, clean stream  ours: {t_clean_ours / len(clean.frames) * 1e6:5.1f} us/frame"

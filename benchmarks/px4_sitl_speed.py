@@ -52,7 +52,7 @@ def minimal_simulator(build: Px4Build, scratch: Path) -> float:
             readings = codec.SensorReadings(
                 t_us, (0.01 * noise[0], 0.01 * noise[1], -9.80665 + 0.01 * noise[2]),
                 (1e-3 * noise[3], 1e-3 * noise[4], 1e-3 * noise[5]),
-                tuple(b + 2e-8 * n for b, n in zip(MAG_FRD_T, noise[6:9])),
+                tuple(b + 2e-8 * n for b, n in zip(MAG_FRD_T, noise[6:9], strict=True)),
                 codec.Baro(95598.0 + noise[9], 15.0, 0.0))
             gps = None
             if step % GPS_EVERY == 0:
@@ -69,8 +69,9 @@ def minimal_simulator(build: Px4Build, scratch: Path) -> float:
 def bench_hover(build: Px4Build, scratch: Path) -> dict:
     """`hil run scenarios/hover.yaml --px4 DIR` as a user runs it (telemetry on); its metrics."""
     runs = scratch / "runs"
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(build.root),
-                             "--runs", str(runs)], capture_output=True, text=True, cwd=ROOT, timeout=600)
+    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+                             "--px4", str(build.root), "--runs", str(runs)],
+                            capture_output=True, text=True, cwd=ROOT, timeout=600)
     run_dir = next(p for p in runs.iterdir() if p.is_dir())
     metrics = json.loads((run_dir / "metrics.json").read_text())
     if result.returncode != 0:

@@ -13,21 +13,41 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from pymavlink.dialects.v20.common import (
+    MAV_AUTOPILOT_INVALID,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_NAV_LAND,
+    MAV_FRAME_LOCAL_NED,
+    MAV_PARAM_TYPE_REAL32,
+    MAV_RESULT_ACCEPTED,
+    MAV_TYPE_GCS,
+    POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
+)
+
 from firmware_interface import hil_codec as codec
 from firmware_interface.link import Link, LinkError, Message
+from firmware_interface.px4_modes import FORCE_DISARM_MAGIC, PX4_MAIN_MODE_OFFBOARD
 
-MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, MAV_AUTOPILOT_PX4 = 6, 8, 12
-MAV_CMD_NAV_LAND, MAV_CMD_DO_SET_MODE, MAV_CMD_COMPONENT_ARM_DISARM = 21, 176, 400
-MAV_RESULT_ACCEPTED = 0
-MAV_PARAM_TYPE_REAL32 = 9
-MAV_LANDED_STATE_ON_GROUND = 1  # EXTENDED_SYS_STATE.landed_state
-FORCE_DISARM_MAGIC = 21196.0  # COMPONENT_ARM_DISARM param2: disarm even in the air (PX4's commander)
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
-MAV_FRAME_LOCAL_NED = 1
-PX4_CUSTOM_MAIN_MODE_OFFBOARD = 6
-SETPOINT_IGNORE_YAW_RATE = 2048  # SET_POSITION_TARGET_LOCAL_NED.type_mask: use pos, vel, acc, yaw
+SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
 STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
+
+
+@dataclass(frozen=True)
+class Request:
+    """A COMMAND_LONG and its parameters: sent with `BoardSession.request` until `acknowledged` says."""
+
+    command: int
+    params: tuple[float, ...] = ()
+
+
+ARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
+DISARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
+FORCE_DISARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0, float(FORCE_DISARM_MAGIC)))  # also in the air
+OFFBOARD = Request(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM), float(PX4_MAIN_MODE_OFFBOARD)))
+LAND = Request(MAV_CMD_NAV_LAND)  # PX4's AUTO_LAND where the vehicle is
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
                          "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE"})
 
@@ -202,28 +222,33 @@ class BoardSession:
 
     # --- sensors and actuators ----------------------------------------------------
     def send_sensors(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
-                     truth: codec.GroundTruth | None = None) -> None:
+                     truth: codec.GroundTruth | codec.LocalTruth | None = None) -> None:
         if gps is not None:
             self.link.send_fields("HIL_GPS", codec.hil_gps_fields(gps))
         if truth is not None:
             self.send_ground_truth(truth)
         self.link.send_fields("HIL_SENSOR", codec.hil_sensor_fields(readings))
 
-    def send_ground_truth(self, truth: codec.GroundTruth) -> bool:
-        """HIL_STATE_QUATERNION to SITL or the emulator; refused for a real board (it would override EKF2)."""
+    def send_ground_truth(self, truth: codec.GroundTruth | codec.LocalTruth) -> bool:
+        """HIL_STATE_QUATERNION (a GroundTruth, what PX4 SITL reads) or ODOMETRY (a LocalTruth, float precision,
+        the emulator's exact-state path) to SITL or the emulator; refused for a real board (it would override
+        EKF2)."""
         if self.kind is BoardKind.HITL:
             return False
-        self.link.send_fields("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
+        if isinstance(truth, codec.LocalTruth):
+            self.link.send_fields("ODOMETRY", codec.odometry_fields(truth))
+        else:
+            self.link.send_fields("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
         return True
 
     def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
-                 truth: codec.GroundTruth | None = None) -> codec.ActuatorOutputs | None:
+                 truth: codec.GroundTruth | codec.LocalTruth | None = None) -> codec.ActuatorOutputs | None:
         """One bench step: `send_step`, then `await_reply`."""
         self.send_step(readings, gps, truth)
         return self.await_reply()
 
     def send_step(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
-                  truth: codec.GroundTruth | None = None) -> None:
+                  truth: codec.GroundTruth | codec.LocalTruth | None = None) -> None:
         """Send this step's sensors; the reply to wait for is the one echoing `readings.t_us`."""
         self.service(readings.t_us * 1e-6 if self.lockstep else None)
         self.send_sensors(readings, gps, truth)
@@ -306,14 +331,15 @@ class BoardSession:
         return self.state.acks.get(command)
 
     def arm(self, arm: bool = True, **kwargs: Any) -> None:
-        result = self.command(MAV_CMD_COMPONENT_ARM_DISARM, (1.0 if arm else 0.0,), **kwargs)
+        request = ARM if arm else DISARM
+        result = self.command(request.command, request.params, **kwargs)
         if result != MAV_RESULT_ACCEPTED:
             texts = "; ".join(t for _, t in self.state.status_texts[-3:])
-            raise BoardError(f"{'arming' if arm else 'disarming'} refused (MAV_RESULT {result}){': ' + texts if texts else ''}")
+            said = f": {texts}" if texts else ""
+            raise BoardError(f"{'arming' if arm else 'disarming'} refused (MAV_RESULT {result}){said}")
 
     def set_offboard(self, **kwargs: Any) -> None:
-        result = self.command(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM), float(PX4_CUSTOM_MAIN_MODE_OFFBOARD)),
-                              **kwargs)
+        result = self.command(OFFBOARD.command, OFFBOARD.params, **kwargs)
         if result != MAV_RESULT_ACCEPTED:
             raise BoardError(f"offboard mode refused (MAV_RESULT {result})")
 

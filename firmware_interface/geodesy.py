@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 WGS84_A = 6_378_137.0
 WGS84_E2 = 6.69437999014e-3
+STANDARD_GRAVITY_M_S2 = 9.80665  # g_n (CGPM 1901): the flight code's and the sensors' g, as PX4's CONSTANTS_ONE_G
 
 
 @dataclass(frozen=True)

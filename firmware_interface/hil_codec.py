@@ -1,6 +1,6 @@
 """SI / NED / FRD values ⇄ the fields of PX4's HIL messages.
 
-The only place where MAVLink units exist (protocol reference §1–3): pressure in hPa,
+The only place where MAVLink units exist (docs/px4_protocol.md §3–7): pressure in hPa,
 magnetic field in gauss, lat/lon in degE7, altitude in mm, velocities in cm/s, course
 in cdeg, eph/epv as accuracy in cm (what PX4 reads, whatever the XML says).
 Functions return field dicts for `Link.send_fields` or read pymavlink messages.
@@ -77,6 +77,19 @@ class GroundTruth:
 
 
 @dataclass(frozen=True, slots=True)
+class LocalTruth:
+    """The true state in the bench's local NED frame, for ODOMETRY: float32 on the wire (~1e-7 relative),
+    where HIL_STATE_QUATERNION's integer lat/lon, mm and cm/s quantise what a controller differentiates.
+    The emulator's exact-state path only; PX4 SITL keeps HIL_STATE_QUATERNION."""
+
+    t_us: int
+    pos_ned: Vec3  # m, about the bench's home
+    vel_ned: Vec3  # m/s
+    q_wxyz: tuple[float, float, float, float]  # body FRD -> NED
+    rates_frd: Vec3  # rad/s
+
+
+@dataclass(frozen=True, slots=True)
 class ActuatorOutputs:
     """HIL_ACTUATOR_CONTROLS as the bench uses it."""
 
@@ -89,7 +102,7 @@ class ActuatorOutputs:
 
 
 def _clamp_int(value: float, low: int, high: int) -> int:
-    return max(low, min(high, int(round(value))))
+    return max(low, min(high, round(value)))
 
 
 def hil_sensor_fields(r: SensorReadings) -> dict[str, Any]:
@@ -196,7 +209,7 @@ def hil_state_quaternion_fields(s: GroundTruth) -> dict[str, Any]:
 def read_hil_state_quaternion(msg: Any) -> GroundTruth:
     return GroundTruth(
         t_us=msg.time_usec,
-        q_wxyz=tuple(msg.attitude_quaternion),  # type: ignore[arg-type]
+        q_wxyz=tuple(msg.attitude_quaternion),
         rates_frd=(msg.rollspeed, msg.pitchspeed, msg.yawspeed),
         lat_deg=msg.lat * 1e-7,
         lon_deg=msg.lon * 1e-7,
@@ -205,6 +218,29 @@ def read_hil_state_quaternion(msg: Any) -> GroundTruth:
         specific_force_frd=(msg.xacc * 1e-3, msg.yacc * 1e-3, msg.zacc * 1e-3),
         airspeed_m_s=msg.true_airspeed * 0.01,
     )
+
+
+MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD = 1, 12
+MAV_ESTIMATOR_TYPE_NAIVE = 1  # "this is the truth": no estimator made it
+
+
+def odometry_fields(s: LocalTruth) -> dict[str, Any]:
+    """ODOMETRY with pose and velocity in MAV_FRAME_LOCAL_NED (child_frame_id names the velocity's frame:
+    NED, so no rotation rounds it), rates in body FRD; covariances unknown (NaN first element)."""
+    nan_covariance = [math.nan] + [0.0] * 20
+    return {"time_usec": s.t_us, "frame_id": MAV_FRAME_LOCAL_NED, "child_frame_id": MAV_FRAME_LOCAL_NED,
+            "x": s.pos_ned[0], "y": s.pos_ned[1], "z": s.pos_ned[2], "q": list(s.q_wxyz),
+            "vx": s.vel_ned[0], "vy": s.vel_ned[1], "vz": s.vel_ned[2],
+            "rollspeed": s.rates_frd[0], "pitchspeed": s.rates_frd[1], "yawspeed": s.rates_frd[2],
+            "pose_covariance": nan_covariance, "velocity_covariance": nan_covariance, "reset_counter": 0,
+            "estimator_type": MAV_ESTIMATOR_TYPE_NAIVE, "quality": 100}
+
+
+def read_odometry(msg: Any) -> LocalTruth:
+    """The inverse of `odometry_fields` (velocity expected in MAV_FRAME_LOCAL_NED)."""
+    return LocalTruth(t_us=msg.time_usec, pos_ned=(msg.x, msg.y, msg.z), vel_ned=(msg.vx, msg.vy, msg.vz),
+                      q_wxyz=tuple(msg.q),
+                      rates_frd=(msg.rollspeed, msg.pitchspeed, msg.yawspeed))
 
 
 def hil_actuator_controls_fields(t_us: int, motors: tuple[float, ...], armed: bool, lockstep: bool,

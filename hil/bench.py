@@ -10,39 +10,46 @@ from __future__ import annotations
 
 import math
 import time
+import traceback
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import dataclass
 from enum import StrEnum
 from typing import Any
 
 import numpy as np
-
-from firmware_interface import hil_codec as codec
-from firmware_interface.board import (
-    FORCE_DISARM_MAGIC,
-    MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
-    MAV_CMD_NAV_LAND,
+from pymavlink.dialects.v20.common import (
     MAV_LANDED_STATE_ON_GROUND,
     MAV_RESULT_ACCEPTED,
-    PX4_CUSTOM_MAIN_MODE_OFFBOARD,
-    BoardError,
-    BoardKind,
 )
-from firmware_interface.emulator.control import INTERNAL_KEYS
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.board import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, BoardError, BoardKind, Request
+from firmware_interface.board_messages import decode_board_message
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import LinkError, Message
 from firmware_interface.link.faults import FaultSpec, LinkFaults
 from hil.connect import BoardHandle
+from hil.exit_codes import (
+    EXIT_BOARD,
+    EXIT_EXPECT_FAILED,
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+)
+from hil.flight_judge import FlightFailed, FlightJudge
 from hil.frame import StepFrame
 from hil.metrics import MetricsCollector
+from hil.rt_priority import frozen_heap, realtime_priority
 from hil.scenario.environment import Environment
+from hil.scenario.expressions import EvaluationError
 from hil.scenario.mission import MissionPlan
 from hil.scenario.reference import RefSample
 from hil.scenario.schema import Scenario
 from hil.scenario.vehicles import plant_parameters
-from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
-from plant_fmu import Plant, PlantError
+from hil.sensors import SensorsConfig, SensorSuite, TrueState
+from hil.step_timer import StepTimer
+from plant_fmu import Plant, PlantError, PlantState
 
 PREFLIGHT_TIMEOUT_S = 60.0  # simulated: PX4's GNSS checks alone need ~10 s of good data
 ARM_RETRY_S = 1.0
@@ -52,10 +59,11 @@ LAND_RETRY_S = 1.0
 LANDING_TIMEOUT_S = 60.0  # from the land request to a confirmed disarm
 DISARM_AFTER_LANDED_S = 3.0  # PX4 disarms by itself 2 s after landing (COM_DISARM_LAND); ask after this
 DISARM_TIMEOUT_S = 5.0  # `end: disarm`: the forced disarm must be confirmed within this
-LANDED_HEIGHT_M = 0.2
-DISARMED_IN_FLIGHT_S = 0.25  # the board's outputs say disarmed this long during take-off or the mission  # the board says landed: the true vehicle must be this close to the ground
+LANDED_HEIGHT_M = 0.2  # the board says landed: the true vehicle must be this close to the ground
+DISARMED_IN_FLIGHT_S = 0.25  # the board's outputs say disarmed this long during take-off or the mission
+GROUNDED_S = 1.0  # stepping on after the disarm, so the board's own flight log records it before it is stopped
+REALTIME_SLIP_S = 0.02  # paced run this far behind the wall clock (the machine stalled): go on from now
 
-EXIT_OK, EXIT_EXPECT_FAILED, EXIT_BOARD, EXIT_INTERRUPTED = 0, 1, 3, 130
 
 
 class Phase(StrEnum):
@@ -67,6 +75,7 @@ class Phase(StrEnum):
     MISSION = "mission"  # the reference, 0 ≤ t ≤ duration
     LANDING = "landing"  # the board's own land mode until it reports landed and disarmed
     DISARMING = "disarming"  # `end: disarm`: a forced disarm where the vehicle is
+    GROUNDED = "grounded"  # landed and disarmed; the board's clock runs on GROUNDED_S
     DONE = "done"
 
 
@@ -90,33 +99,9 @@ class RunResult:
 Sink = Callable[[StepFrame], None]
 
 
-def _board_payload(msg: Message) -> tuple[str, dict[str, Any]] | None:
-    kind = msg.get_type()
-    if kind == "ATTITUDE_TARGET":
-        return kind, {"q": list(msg.q), "thrust": msg.thrust}
-    if kind == "DEBUG_FLOAT_ARRAY":
-        keys = INTERNAL_KEYS.get(msg.name, ())
-        values = dict(zip(keys, msg.data)) if keys else {f"v{i}": v for i, v in enumerate(msg.data) if v}
-        return kind, {"name": msg.name, "values": values}
-    if kind == "HEARTBEAT":
-        return kind, {"armed": bool(msg.base_mode & codec.MODE_FLAG_ARMED), "custom_mode": msg.custom_mode,
-                      "system_status": msg.system_status}
-    if kind == "STATUSTEXT":
-        return kind, {"severity": msg.severity, "text": msg.text}
-    if kind == "COMMAND_ACK":
-        return kind, {"command": msg.command, "result": msg.result}
-    if kind == "LOCAL_POSITION_NED":
-        return kind, {"pos_ned": [msg.x, msg.y, msg.z], "vel_ned": [msg.vx, msg.vy, msg.vz]}
-    if kind == "ATTITUDE":
-        return kind, {"rpy": [msg.roll, msg.pitch, msg.yaw]}
-    if kind == "EXTENDED_SYS_STATE":
-        return kind, {"landed_state": msg.landed_state}
-    return None
-
-
 class Bench:
     def __init__(self, scenario: Scenario, board: BoardHandle, realtime: bool, sinks: list[Sink],
-                 progress: Callable[[float, float, float], None] | None = None,
+                 progress: Callable[[str, float, float, float], None] | None = None,
                  on_event: Callable[[int, str], None] | None = None) -> None:
         self.scenario = scenario
         self.board = board
@@ -124,9 +109,9 @@ class Bench:
         self.sinks = sinks
         self.progress = progress
         self.on_event = on_event
-        self.dt = 1.0 / scenario.rate_hz
-        self.dt_us = int(round(1e6 / scenario.rate_hz))
-        self.home = Home(scenario.home.lat_deg, scenario.home.lon_deg, scenario.home.alt_msl_m)
+        self.dt_us = round(1e6 / scenario.rate_hz)  # the bench's clock is integer µs; the plant's step follows it
+        self.dt = self.dt_us / 1e6  # (equal to 1 / rate_hz whenever the rate divides 1 MHz, as every shipped one)
+        self.home = scenario.home
         self._local_frame = LocalFrame(self.home.lat_deg, self.home.lon_deg, self.home.alt_msl_m)
         rng = np.random.default_rng(scenario.seed)
         sensor_rng, env_rng = rng.spawn(2)
@@ -144,24 +129,10 @@ class Bench:
         self.link_faults = self._inject_link_faults(rng.spawn(1)[0]) if scenario.faults.link else []
         self._disarmed_in_flight_since: float | None = None
         self._failsafe_texts: list[tuple[float, str]] = []
-        self.send_truth = board.kind is BoardKind.SITL or (
-            board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth")
-        self._inputs = np.zeros(len(Plant.INPUT_NAMES))
-        idx = self.plant.input_index
-        self._motor_idx = [idx[f"motor_cmd_{i}"] for i in range(1, 5)]
-        self._health_idx = [idx[f"motor_health_{i}"] for i in range(1, 5)]
-        self._wind_idx = [idx[n] for n in ("wind_n", "wind_e", "wind_d")]
-        self._force_idx = [idx[n] for n in ("f_dist_n", "f_dist_e", "f_dist_d")]
-        self._torque_idx = [idx[n] for n in ("tau_dist_x", "tau_dist_y", "tau_dist_z")]
-        self._payload_idx = idx["payload_mass"]
-        o = self.plant.output_index
-        self._o = o
-        self._pos = [o[n] for n in ("pos_n", "pos_e", "pos_d")]
-        self._vel = [o[n] for n in ("vel_n", "vel_e", "vel_d")]
-        self._quat = [o[n] for n in ("q_w", "q_x", "q_y", "q_z")]
-        self._rates = [o[n] for n in ("rate_x", "rate_y", "rate_z")]
-        self._rpy = [o[n] for n in ("roll", "pitch", "yaw")]
-        self._force = [o[n] for n in ("specific_force_x", "specific_force_y", "specific_force_z")]
+        # the emulator flying on the truth gets it at float precision (ODOMETRY); PX4 SITL gets HIL_STATE_QUATERNION
+        self.exact_truth = board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth"
+        self.send_truth = board.kind is BoardKind.SITL or self.exact_truth
+        self.state = self.plant.state()  # the true state after the latest step
         self.t_us = 0
         self.phase = Phase.PREFLIGHT
         self._phase_since_s = 0.0
@@ -170,12 +141,14 @@ class Bench:
         self._params_reported = False
         self.board_offset_ned: np.ndarray | None = None  # board local frame - truth, from arming on
         self.mission_t = -math.inf
+        self.internal_error: str | None = None  # the traceback of an error nobody expected
+        self.judge = FlightJudge()
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.armed = False
         self.events: list[tuple[int, str]] = []
         self._started = time.perf_counter()
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
-        self._sinks_started = 0.0
+        self._timer = StepTimer(self.metrics.breakdown_s)
 
     def _inject_link_faults(self, rng: np.random.Generator) -> list[LinkFaults]:
         """The scenario's link faults on each link to the board. They are wall-clock effects (a board's
@@ -184,7 +157,8 @@ class Bench:
                            f.delay_ms / 1000.0, f.jitter_ms / 1000.0, f.byte_error_rate)
                  for f in self.scenario.faults.link]
         faults = []
-        for session, stream in zip(self.board.sessions, rng.spawn(2)):
+        # one or two sessions; two streams are spawned either way (the RNG's draws do not depend on it)
+        for session, stream in zip(self.board.sessions, rng.spawn(2), strict=False):
             session.link.faults = LinkFaults(specs, stream)
             session.wait_for_replies = False
             session.watchdog_s += session.link.faults.longest_outage_s()
@@ -195,17 +169,26 @@ class Bench:
     # --- the run -----------------------------------------------------------------
     def run(self) -> RunResult:
         start_wall = self._started = time.perf_counter()
-        reason, code = "completed", EXIT_OK
+        reason, code = "completed", int(EXIT_OK)
         try:
-            self._fly()
+            paced = realtime_priority(self.board.realtime_pids()) if self.realtime else nullcontext("")
+            with frozen_heap(), paced as note:
+                if note:
+                    self._event(note)
+                self._fly()
         except RunAborted as exc:
             reason, code = exc.reason, exc.exit_code
         except (BoardError, LinkError) as exc:
             reason, code = f"board/link failure: {exc}", EXIT_BOARD
         except PlantError as exc:
-            reason, code = f"plant diverged: {exc}", EXIT_EXPECT_FAILED
+            reason, code = f"plant diverged {self.when()}: {exc}", EXIT_EXPECT_FAILED
+        except EvaluationError as exc:  # the scenario's own expression failed mid-flight
+            reason, code = f"a scenario expression failed: {exc} (mission time)", EXIT_EXPECT_FAILED
         except KeyboardInterrupt as exc:
             reason, code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
+        except Exception as exc:
+            self.internal_error = traceback.format_exc()
+            reason, code = f"internal error {self.when()}: {type(exc).__name__}: {exc}", EXIT_INTERNAL
         finally:
             self._flush_pending()
             self.metrics.wall_s = time.perf_counter() - start_wall
@@ -226,6 +209,12 @@ class Bench:
             metrics["board_frame_offset_m"] = [float(v) for v in self.board_offset_ned]
         return RunResult(code, reason, metrics)
 
+    def when(self) -> str:
+        """The moment of the run, as a user reads it: mission time once the mission clock runs."""
+        if math.isfinite(self.mission_t):
+            return f"at mission time {self.mission_t:.2f} s"
+        return f"at bench time {self.t_us * 1e-6:.2f} s (before the mission)"
+
     def _event(self, text: str) -> None:
         self.events.append((self.t_us, text))
         if self.on_event is not None:
@@ -233,7 +222,8 @@ class Bench:
 
     def _fly(self) -> None:
         handlers = {Phase.PREFLIGHT: self._preflight, Phase.OFFBOARD: self._offboard, Phase.TAKEOFF: self._takeoff,
-                    Phase.MISSION: self._mission, Phase.LANDING: self._landing, Phase.DISARMING: self._disarming}
+                    Phase.MISSION: self._mission, Phase.LANDING: self._landing, Phase.DISARMING: self._disarming,
+                    Phase.GROUNDED: self._grounded}
         next_deadline = time.perf_counter()
         last_progress = time.perf_counter()
         total_s = self.plan.takeoff_s + self.plan.duration_s
@@ -246,21 +236,21 @@ class Bench:
             if self.phase in FLYING:
                 self.mission_t += self.dt
             if self.realtime:
-                next_deadline += self.dt
-                self._sleep_until(next_deadline)
+                next_deadline = self._sleep_until(next_deadline + self.dt)
             if self.progress is not None and time.perf_counter() - last_progress > 0.25:
                 last_progress = time.perf_counter()
-                self.progress(max(self.mission_t, -self.plan.takeoff_s) + self.plan.takeoff_s, total_s,
+                flown = min(max(self.mission_t + self.plan.takeoff_s, 0.0), total_s)  # take-off and mission
+                self.progress(str(self.phase), self.t_us * 1e-6, flown / total_s,
                               self.t_us * 1e-6 / max(last_progress - self._started, 1e-9))
 
     # --- phases: each returns the reference to fly this step (None: no setpoint) ----
     def _last_texts(self, count: int) -> str:
         return "; ".join(t for _, t in self.board.commands.state.status_texts[-count:])
 
-    def _request_every(self, now_s: float, period_s: float, command: int, params: tuple[float, ...]) -> None:
+    def _request_every(self, now_s: float, period_s: float, request: Request) -> None:
         """Send a command now and again every `period_s` until its ACK arrives (the ACK is read per step)."""
         if now_s >= self._next_request_s:
-            self.board.commands.request(command, params)
+            self.board.commands.request(request.command, request.params)
             self._next_request_s = now_s + period_s
 
     def _switch(self, phase: Phase, now_s: float) -> None:
@@ -281,12 +271,12 @@ class Bench:
             return None  # PX4 SITL opens its MAVLink ports only as its clock runs: keep stepping
         if not self._board_params_set(now_s):
             return None
-        if commands.acknowledged(MAV_CMD_COMPONENT_ARM_DISARM) == MAV_RESULT_ACCEPTED:
+        if commands.acknowledged(ARM.command) == MAV_RESULT_ACCEPTED:
             self._align_board_frame()
             self._switch(Phase.OFFBOARD, now_s)
             self._next_request_s = now_s + SETPOINTS_BEFORE_OFFBOARD_S
         else:
-            self._request_every(now_s, ARM_RETRY_S, MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
+            self._request_every(now_s, ARM_RETRY_S, ARM)
         return None if self.phase is Phase.PREFLIGHT else self.plan.sample(-self.plan.takeoff_s)
 
     def _board_params_set(self, now_s: float) -> bool:
@@ -307,7 +297,7 @@ class Bench:
         return False
 
     def _offboard(self, now_s: float) -> RefSample | None:
-        ack = self.board.commands.acknowledged(MAV_CMD_DO_SET_MODE)
+        ack = self.board.commands.acknowledged(OFFBOARD.command)
         if ack == MAV_RESULT_ACCEPTED:
             self._switch(Phase.TAKEOFF, now_s)
             self.mission_t = -self.plan.takeoff_s
@@ -315,8 +305,7 @@ class Bench:
             texts = self._last_texts(2)
             raise RunAborted(f"offboard mode refused (MAV_RESULT {ack}){': ' + texts if texts else ''}", EXIT_BOARD)
         else:
-            self._request_every(now_s, 0.5, MAV_CMD_DO_SET_MODE,
-                                (float(codec.MODE_FLAG_CUSTOM), float(PX4_CUSTOM_MAIN_MODE_OFFBOARD)))
+            self._request_every(now_s, 0.5, OFFBOARD)
         return self.plan.sample(self.mission_t if self.phase is Phase.TAKEOFF else -self.plan.takeoff_s)
 
     def _judge_armed(self, now_s: float) -> None:
@@ -331,14 +320,27 @@ class Bench:
             raise RunAborted(f"the board disarmed in flight at {self._disarmed_in_flight_since:.3f} s (mission time "
                              f"{self.mission_t:.2f} s){': ' + texts if texts else ''}", EXIT_EXPECT_FAILED)
 
+    def _judge_flight(self) -> None:
+        """Leaving the ground, hitting it, tumbling: judged on the true state (events, then the end)."""
+        state = self.state
+        height, roll, pitch = -float(state.pos_ned[2]), float(state.rpy[0]), float(state.rpy[1])
+        step = self.judge.mission_step if self.phase is Phase.MISSION else self.judge.take_off_step
+        try:
+            step(height, state.on_ground, roll, pitch, self.when())
+        except FlightFailed as exc:
+            self._event(str(exc))
+            raise RunAborted(str(exc), EXIT_EXPECT_FAILED) from exc
+
     def _takeoff(self, now_s: float) -> RefSample | None:
         self._judge_armed(now_s)
+        self._judge_flight()
         if self.mission_t >= 0:
             self._switch(Phase.MISSION, now_s)
         return self.plan.sample(self.mission_t)
 
     def _mission(self, now_s: float) -> RefSample | None:
         self._judge_armed(now_s)
+        self._judge_flight()
         if self.mission_t <= self.plan.duration_s:
             return self.plan.sample(self.mission_t)
         self._switch(Phase.DISARMING if self.scenario.end == "disarm" else Phase.LANDING, now_s)
@@ -357,9 +359,9 @@ class Bench:
             raise RunAborted(f"landing timed out after {LANDING_TIMEOUT_S:g} s: board reports {landed}, "
                              f"{'armed' if commands.state.armed else 'disarmed'}{'; ' + texts if texts else ''}",
                              EXIT_EXPECT_FAILED)
-        land_accepted = commands.acknowledged(MAV_CMD_NAV_LAND) == MAV_RESULT_ACCEPTED
+        land_accepted = commands.acknowledged(LAND.command) == MAV_RESULT_ACCEPTED
         if not land_accepted:
-            self._request_every(now_s, LAND_RETRY_S, MAV_CMD_NAV_LAND, ())
+            self._request_every(now_s, LAND_RETRY_S, LAND)
             return self._end_point()  # keep offboard fed until the board has switched to landing
         if not self._board_landed():
             self._landed_since_s = None
@@ -370,7 +372,7 @@ class Bench:
         if not commands.state.armed:
             self._finish_on_ground(now_s)
         elif now_s - self._landed_since_s > DISARM_AFTER_LANDED_S:
-            self._request_every(now_s, 1.0, MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
+            self._request_every(now_s, 1.0, DISARM)
         return None
 
     def _board_landed(self) -> bool:
@@ -378,16 +380,23 @@ class Bench:
         return extended is not None and extended.landed_state == MAV_LANDED_STATE_ON_GROUND
 
     def _finish_on_ground(self, now_s: float) -> None:
-        height = -float(self.plant.outputs()[self._pos][2])
+        height = -float(self.state.pos_ned[2])
         if height > LANDED_HEIGHT_M:
             raise RunAborted(f"the board reported landed and disarmed at {now_s:.3f} s with the vehicle "
                              f"{height:.2f} m above the ground", EXIT_EXPECT_FAILED)
         self._event(f"disarmed on the ground at {now_s:.3f} s")
-        self._switch(Phase.DONE, now_s)
+        self._switch(Phase.GROUNDED, now_s)
+
+    def _grounded(self, now_s: float) -> RefSample | None:
+        """Simulated time runs on a little after the disarm: in lockstep the board's logger only writes
+        as its clock advances, and PX4's (SDLOG_MODE 1) closes its log on the disarm it has yet to see."""
+        if now_s - self._phase_since_s >= GROUNDED_S:
+            self._switch(Phase.DONE, now_s)
+        return None
 
     def _disarming(self, now_s: float) -> RefSample | None:
         commands = self.board.commands
-        confirmed = (commands.acknowledged(MAV_CMD_COMPONENT_ARM_DISARM) == MAV_RESULT_ACCEPTED
+        confirmed = (commands.acknowledged(ARM.command) == MAV_RESULT_ACCEPTED
                      or not self.armed)
         if confirmed and now_s > self._phase_since_s:
             self._event(f"disarmed at {now_s:.3f} s (end: disarm)")
@@ -396,14 +405,14 @@ class Bench:
         if now_s - self._phase_since_s > DISARM_TIMEOUT_S:
             raise RunAborted(f"disarm not confirmed within {DISARM_TIMEOUT_S:g} s: {self._last_texts(2)}",
                              EXIT_EXPECT_FAILED)
-        self._request_every(now_s, 0.5, MAV_CMD_COMPONENT_ARM_DISARM, (0.0, FORCE_DISARM_MAGIC))
+        self._request_every(now_s, 0.5, FORCE_DISARM)
         return self._end_point()
 
     def _align_board_frame(self) -> None:
         """Setpoints go to the board in its own local frame: the offset between its LOCAL_POSITION_NED and
         the true position, taken when it accepts arming (on the ground, at rest) and kept for the run."""
         local = self.board.commands.state.latest.get("LOCAL_POSITION_NED")
-        truth = self.plant.outputs()[self._pos]
+        truth = self.state.pos_ned
         if local is None:
             self._event("board sent no LOCAL_POSITION_NED before arming: setpoints in the bench's frame")
             self.board_offset_ned = np.zeros(3)
@@ -412,62 +421,84 @@ class Bench:
         self._event("board frame: local origin offset [{:+.3f}, {:+.3f}, {:+.3f}] m (board - truth)".format(
             *self.board_offset_ned))
 
-    def _sleep_until(self, deadline: float) -> None:
+    def _sleep_until(self, deadline: float) -> float:
+        """Wait for the step's wall-clock deadline; returns the deadline kept. After a stall longer than
+        REALTIME_SLIP_S the schedule slips instead of catching up: a burst of steps would hand the board
+        a burst of sensor frames and let the plant run many steps on one stale actuator reply, while a
+        slip is a pause both sides see as one late frame."""
         now = time.perf_counter()
         if now > deadline + self.dt:
             self.metrics.late_steps += 1
+        if now > deadline + REALTIME_SLIP_S:
+            self.metrics.add_slip(now - deadline)
+            deadline = now
         remaining = deadline - now
         if remaining > 0.0005:
             time.sleep(remaining - 0.0003)
         while time.perf_counter() < deadline:
             pass
-        self.metrics.step_starts.append(time.perf_counter())
+        self.metrics.add_step_start(time.perf_counter(), self.dt)
+        return deadline
 
     # --- one step -----------------------------------------------------------------
     def _step(self, reference: RefSample | None, mission_t: float) -> None:
-        step_start = time.perf_counter()
+        timer = self._timer
+        timer.start()
         session = self.board.session
         if not session.waits_for_replies:  # a board on its own clock: take the reply that came while we slept
             actuators = session.await_reply()
             if actuators is not None:
                 self.motors, self.armed = actuators.motors, actuators.armed
         env = self.environment.sample(mission_t if self.phase in FLYING else -1.0)
-        u = self._inputs
-        u[self._motor_idx] = self.motors
-        u[self._health_idx] = env.motor_health
-        u[self._wind_idx] = env.wind_ned
-        u[self._force_idx] = env.force_ned
-        u[self._torque_idx] = env.torque_frd
-        u[self._payload_idx] = env.payload_kg
-        t_env = time.perf_counter()
-        self.plant.set_inputs(u)
-        out = self.plant.step(self.dt)
+        timer.lap("environment")
+        self.plant.set_input_groups(self.motors, env.motor_health, env.wind_ned, env.force_ned, env.torque_frd,
+                                    env.payload_kg)
+        self.plant.step(self.dt)
+        self.state = state = self.plant.state()
         self.t_us += self.dt_us
-        t_plant = time.perf_counter()
-        truth = TrueState(self.t_us, out[self._pos], out[self._vel], out[self._quat], out[self._rates], out[self._force])
+        timer.lap("plant")
+        truth = TrueState(self.t_us, state.pos_ned, state.vel_ned, state.q_wxyz, state.rates_frd,
+                          state.specific_force_frd)
         readings, gps = self.sensors.step(truth, mission_t if mission_t > -math.inf else None)
         for faults in self.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
-        sent = time.perf_counter()
-        session.link.begin_batch()  # setpoint first, then sensors, in one write: the board flies this step
+        sent = timer.lap("sensors")
+        self._send_step(reference, readings, gps, state)
+        actuators = session.await_reply()
+        t_reply = timer.lap("wait_for_board")
+        round_trip = t_reply - sent if session.lockstep else None
+        if actuators is not None:
+            self.motors, self.armed = actuators.motors, actuators.armed
+        board = self._board_messages(state)
+        frame = StepFrame(self.t_us, mission_t, self.phase, state, reference, readings, gps, self.motors, self.armed,
+                          env, board, time.perf_counter() - timer.started, round_trip)
+        self._pending = frame
+        timer.lap("frame")
+
+    def _send_step(self, reference: RefSample | None, readings: codec.SensorReadings, gps: codec.GpsFix | None,
+                   state: PlantState) -> None:
+        """Setpoint first, then sensors, in one write: the board flies this step; then what may overlap the
+        board's computation (command bookkeeping, the ground-station relay, the previous step's sinks)."""
+        session = self.board.session
+        session.link.begin_batch()
         if reference is not None:  # on this step's setpoint whatever the scheduling (and deterministically)
             offset = self.board_offset_ned if self.board_offset_ned is not None else 0.0
             self.board.commands.send_setpoint(self.t_us // 1000, tuple(reference.pos_ned + offset),
                                               tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
-        session.send_step(readings, gps, self._ground_truth(out) if self.send_truth else None)
+        session.send_step(readings, gps, self._ground_truth(state) if self.send_truth else None)
         session.link.flush()
         if self.board.commands is not session:
             self.board.commands.service(self.t_us * 1e-6 if session.lockstep else None)
         if self.board.gcs is not None:
             self._relay_gcs()
+        self._timer.lap("encode_and_send")
         self._flush_pending()  # the previous step's sinks run while the board computes this one
-        t_sent = time.perf_counter()
-        actuators = session.await_reply()
-        t_reply = time.perf_counter()
-        round_trip = t_reply - sent if session.lockstep else None
-        if actuators is not None:
-            self.motors, self.armed = actuators.motors, actuators.armed
-        board = [p for p in (_board_payload(m) for m in self._drain_inbox()) if p is not None]
+        self._timer.lap("sinks_of_previous_step")
+
+    def _board_messages(self, state: PlantState) -> list[tuple[str, dict[str, Any]]]:
+        """The board's messages of this step, decoded; its texts become events and its estimates (during the
+        mission) are scored against the true `state`."""
+        board = [p for p in (decode_board_message(m) for m in self._drain_inbox()) if p is not None]
         for kind, payload in board:
             if kind == "STATUSTEXT":
                 self._event(f"board: {payload['text']}")
@@ -476,23 +507,12 @@ class Bench:
             elif self.phase is not Phase.MISSION:
                 continue
             elif kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None:
-                self.metrics.add_estimate_error(np.array(payload["pos_ned"]) - self.board_offset_ned - out[self._pos])
+                self.metrics.add_estimate_error(np.array(payload["pos_ned"]) - self.board_offset_ned - state.pos_ned)
             elif kind == "ATTITUDE":
-                self.metrics.add_attitude_estimate_error(np.array(payload["rpy"]) - out[self._rpy])
-        frame = StepFrame(self.t_us, mission_t, self.phase, out.copy(), self.plant.on_ground, reference, readings, gps,
-                          self.motors, self.armed, env, board, time.perf_counter() - step_start, round_trip)
-        self._pending = frame
-        b = self.metrics.breakdown_s
-        b["environment"] += t_env - step_start
-        b["plant"] += t_plant - t_env
-        b["sensors"] += sent - t_plant
-        b["encode_and_send"] += self._sinks_started - sent
-        b["sinks_of_previous_step"] += t_sent - self._sinks_started
-        b["wait_for_board"] += t_reply - t_sent
-        b["frame"] += time.perf_counter() - t_reply
+                self.metrics.add_attitude_estimate_error(np.array(payload["rpy"]) - state.rpy)
+        return board
 
     def _flush_pending(self) -> None:
-        self._sinks_started = time.perf_counter()
         frame, self._pending = self._pending, None
         if frame is not None:
             self.metrics.add(frame)
@@ -519,10 +539,13 @@ class Bench:
             self.board.commands.poll(0.0)
         return messages
 
-    def _ground_truth(self, out: np.ndarray) -> codec.GroundTruth:
-        pos = out[self._pos]
+    def _ground_truth(self, state: PlantState) -> codec.GroundTruth | codec.LocalTruth:
+        pos = state.pos_ned
+        if self.exact_truth:
+            return codec.LocalTruth(self.t_us, tuple(pos.tolist()), tuple(state.vel_ned.tolist()),
+                                    tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()))
         lat, lon, alt = self._local_frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
-        vel = out[self._vel]
-        return codec.GroundTruth(self.t_us, tuple(out[self._quat].tolist()), tuple(out[self._rates].tolist()),
-                                 lat, lon, alt, tuple(vel.tolist()), tuple(out[self._force].tolist()),
+        vel = state.vel_ned
+        return codec.GroundTruth(self.t_us, tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()),
+                                 lat, lon, alt, tuple(vel.tolist()), tuple(state.specific_force_frd.tolist()),
                                  float(np.linalg.norm(vel - self.environment.steady)))

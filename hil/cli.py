@@ -6,8 +6,10 @@ import argparse
 import signal
 import sys
 from pathlib import Path
+from typing import Any
 
-EXIT_OK, EXIT_EXPECT_FAILED, EXIT_BAD_INPUT, EXIT_BOARD, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+from firmware_interface.emulator.control.registry import CONTROLLERS
+from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
 
 
 def _cmd_fmu_build(args: argparse.Namespace) -> int:
@@ -46,13 +48,14 @@ def _cmd_fmu_hover(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _load(paths: list[str]) -> tuple[list, int]:
+def _load(paths: list[str]) -> tuple[list[tuple[str, Any]], int]:
+    """The scenarios that load, each as (path, scenario), and how many did not (their problems printed)."""
     from hil.scenario.loader import ScenarioError, load_scenario
 
     scenarios, bad = [], 0
     for path in paths:
         try:
-            scenarios.append(load_scenario(Path(path)))
+            scenarios.append((path, load_scenario(Path(path))))
         except ScenarioError as exc:
             for problem in exc.problems:
                 print(problem, file=sys.stderr)
@@ -62,38 +65,68 @@ def _load(paths: list[str]) -> tuple[list, int]:
 
 def _cmd_check(args: argparse.Namespace) -> int:
     scenarios, bad = _load(args.files)
-    for scenario, path in zip(scenarios, args.files):
+    for path, scenario in scenarios:
         print(f"{path}: ok ({scenario.name}: {scenario.reference.type}, {scenario.duration_s:g} s)")
     return EXIT_BAD_INPUT if bad else EXIT_OK
 
 
-def _terminate(signum: int, _frame: object) -> None:
-    """SIGTERM (timeout, systemd, CI) ends a run as Ctrl-C does: files closed, PX4 stopped."""
-    raise KeyboardInterrupt(signal.Signals(signum).name)
+def _with_run_options(scenario, args: argparse.Namespace):
+    """The scenario with --seed, --controller and --telemetry-rate applied and validated as the file is
+    (a seed of -1 or a rate of 0 is bad input), or None after one line per problem."""
+    from pydantic import ValidationError
+
+    data = scenario.model_dump()
+    if args.seed is not None:
+        data["seed"] = args.seed
+    if args.controller:
+        data["board"]["controller"] = args.controller
+    for item in args.telemetry_rate or []:
+        channel, _, hz = item.partition("=")
+        try:
+            data["telemetry"]["rates_hz"][channel] = float(hz)
+        except ValueError:
+            print(f"hil run: --telemetry-rate {item}: expected CHANNEL=HZ, e.g. state=50", file=sys.stderr)
+            return None
+    try:
+        return type(scenario).model_validate(data)
+    except ValidationError as exc:
+        for error in exc.errors()[:20]:
+            print(f"hil run: {'.'.join(str(p) for p in error['loc'])}: {error['msg']}", file=sys.stderr)
+        return None
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from hil.progress import progress_printer
-    from hil.px4 import Px4Build, Px4SetupError
-    from hil.runner import RunOptions, run_scenario
+    from hil.runner import run_scenario
 
     scenarios, bad = _load([args.scenario])
     if bad:
         return EXIT_BAD_INPUT
-    scenario = scenarios[0]
-    if args.seed is not None:
-        scenario = scenario.model_copy(update={"seed": args.seed})
-    if args.controller:
-        scenario = scenario.model_copy(update={"board": scenario.board.model_copy(update={"controller": args.controller})})
-    rates = {}
-    for item in args.telemetry_rate or []:
-        channel, _, hz = item.partition("=")
-        try:
-            rates[channel] = float(hz)
-        except ValueError:
-            print(f"hil run: --telemetry-rate {item}: expected CHANNEL=HZ, e.g. state=50", file=sys.stderr)
-            return EXIT_BAD_INPUT
+    scenario = _with_run_options(scenarios[0][1], args)
+    options = None if scenario is None else _run_options(args, scenario)
+    if scenario is None or options is None:
+        return EXIT_BAD_INPUT
+    with progress_printer(scenario.name) as progress:
+        outcome = run_scenario(scenario, options, progress=progress)
+    if outcome.exit_code == EXIT_INTERRUPTED:  # the run is closed: more Ctrl-C only end it as it ends
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_IGN)
+    print(outcome.summary, end="")
+    if not outcome.kept:
+        print(f"run directory removed: the board never connected (--keep-failed keeps {outcome.run_dir})")
+        return outcome.exit_code
+    print(f"run directory: {outcome.run_dir}")
+    if not args.no_report and outcome.exit_code != EXIT_INTERRUPTED:
+        _report_after_run(outcome.run_dir)
+    return outcome.exit_code
+
+
+def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
+    """`hil run`'s options, every link, PX4 build and address checked before any board starts; None after
+    one line naming the option that is wrong."""
     from firmware_interface.link import LinkError, parse_connection
+    from hil.px4 import Px4Build, Px4SetupError
+    from hil.runner import RunOptions
 
     named = [("--gcs", e) for e in args.gcs or []] + [(o, v) for o, v in (("--port", args.port),
                                                                            ("--mavlink", args.mavlink)) if v]
@@ -102,29 +135,29 @@ def _cmd_run(args: argparse.Namespace) -> int:
             parse_connection(endpoint, args.baud)
         except LinkError as exc:
             print(f"hil run: {option} {endpoint}: {exc}", file=sys.stderr)
-            return EXIT_BAD_INPUT
+            return None
     try:
         px4 = Px4Build.locate(args.px4, "--px4") if args.px4 else None
         px4_hitl = Px4Build.locate(args.px4_hitl, "--px4-hitl") if args.px4_hitl else None
     except Px4SetupError as exc:
         print(f"hil run: {exc}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    options = RunOptions(port=args.port, mavlink=args.mavlink, realtime=args.realtime, px4=px4, px4_hitl=px4_hitl,
-                         connect_timeout_s=args.connect_timeout, gcs=[] if args.no_gcs else args.gcs, baud=args.baud,
-                         runs_root=Path(args.runs), telemetry=None if args.no_telemetry else _zenoh_options(args),
-                         telemetry_rates_hz=rates)
-    previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
-        with progress_printer(scenario.name) as progress:
-            outcome = run_scenario(scenario, options, progress=progress)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-    print(outcome.summary, end="")
-    print(f"run directory: {outcome.run_dir}")
-    return outcome.exit_code
+        return None
+    if args.foxglove is not None:
+        from hil.foxglove_live import parse_address
+
+        try:
+            parse_address(args.foxglove)
+        except ValueError as exc:
+            print(f"hil run: --foxglove {exc}", file=sys.stderr)
+            return None
+    return RunOptions(port=args.port, foxglove=args.foxglove, mavlink=args.mavlink, realtime=args.realtime, px4=px4,
+                      px4_hitl=px4_hitl, connect_timeout_s=args.connect_timeout,
+                      gcs=[] if args.no_gcs else args.gcs, baud=args.baud, runs_root=Path(args.runs),
+                      keep_failed=args.keep_failed, telemetry=None if args.no_telemetry else _zenoh_options(args),
+                      telemetry_rates_hz=scenario.telemetry.rates_hz)
 
 
-def _zenoh_options(args: argparse.Namespace):  # noqa: ANN202 - hil.telemetry is imported lazily
+def _zenoh_options(args: argparse.Namespace):
     from hil.telemetry import ZenohOptions
 
     endpoints = bool(args.zenoh_connect or args.zenoh_listen)
@@ -155,14 +188,99 @@ def _cmd_echo(args: argparse.Namespace) -> int:
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from hil.report import report
+    from hil.report_html import NoFlightData, write_report
 
     run_dir = Path(args.run_dir)
     if not (run_dir / "recording.mcap").is_file():
         print(f"hil report: {run_dir}: not a run directory (no recording.mcap)", file=sys.stderr)
         return EXIT_BAD_INPUT
-    for figure in report(run_dir):
-        print(figure)
+    try:
+        print(write_report(run_dir))
+        for figure in report(run_dir, paper_frame=args.paper_frame):
+            print(figure)
+    except NoFlightData as exc:
+        print(f"hil report: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return EXIT_OK
+
+
+def _report_after_run(run_dir: Path) -> None:
+    """report.html at the end of `hil run`; a run without flight data gets a note instead of a page."""
+    from hil.report_html import NoFlightData, write_report
+
+    try:
+        print(f"report: {write_report(run_dir)}")
+    except NoFlightData as exc:
+        print(f"no report: {exc}")
+
+
+def _cmd_recover(args: argparse.Namespace) -> int:
+    from hil.recover import RecoverError, recover
+
+    run_dir = Path(args.run_dir)
+    try:
+        result = recover(run_dir)
+    except RecoverError as exc:
+        print(f"hil recover: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if result.already_complete:
+        print(f"{run_dir / 'recording.mcap'}: complete already (indexed), nothing to do")
+    else:
+        print(f"{run_dir / 'recording.mcap'}: recovered {result.messages} messages; the cut file is kept as "
+              "recording.mcap.cut; summary.txt marked as recovered")
+    return EXIT_OK
+
+
+def _cmd_foxglove(args: argparse.Namespace) -> int:
+    import threading
+
+    from hil.foxglove_live import bridge_zenoh, parse_address
+    from hil.telemetry import open_session
+
+    try:
+        parse_address(args.listen)
+    except ValueError as exc:
+        print(f"hil foxglove: --listen {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    session = open_session(_zenoh_options(args))
+    stop = threading.Event()
+    try:
+        reason = bridge_zenoh(session, args.run_id, args.listen, args.wait, stop)
+    except KeyboardInterrupt:
+        return EXIT_INTERRUPTED
+    except RuntimeError as exc:  # foxglove-sdk: the address is taken
+        print(f"hil foxglove: --listen {args.listen}: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    finally:
+        session.close()
+    print(f"hil foxglove: {reason}")
+    return EXIT_OK if reason.endswith("ended") else EXIT_BOARD
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from hil.progress import sample_progress
+    from hil.scenario.loader import ScenarioError
+    from hil.sweep import SweepError, load_sweep, run_spec
+
+    path = Path(args.sweep)
+    try:
+        spec = load_sweep(path)
+        out = Path(args.out) if args.out else Path("runs") / f"sweep-{spec.name}"
+        with sample_progress(spec.name) as progress:
+            outcome = run_spec(spec, out, jobs=args.jobs, cluster=args.cluster, limit=args.limit, resume=args.resume,
+                               on_progress=progress)
+    except SweepError as exc:
+        print(exc, file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except ScenarioError as exc:
+        for problem in exc.problems:
+            print(problem, file=sys.stderr)
+        return EXIT_BAD_INPUT
+    failed = sum(r["exit_code"] not in (0, 1) for r in outcome.rows)
+    print(f"{len(outcome.rows)} of {outcome.total} samples finished ({failed} failed to fly)"
+          f"{'; interrupted: hil sweep --resume continues' if outcome.interrupted else ''}")
+    print(f"written: {outcome.out / 'sweep.parquet'}, {outcome.out / 'sweep.md'}")
+    return EXIT_INTERRUPTED if outcome.interrupted else EXIT_OK
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
@@ -172,12 +290,12 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if bad:
         return EXIT_BAD_INPUT
     controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    unknown = sorted(set(controllers) - {"smarc", "smpid", "backstepping"})
+    unknown = sorted(set(controllers) - set(CONTROLLERS))
     if unknown:
-        print(f"hil compare: unknown controller(s) {', '.join(unknown)}: expected smarc, smpid, backstepping",
+        print(f"hil compare: unknown controller(s) {', '.join(unknown)}: expected {', '.join(CONTROLLERS)}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    scenario = scenarios[0]
+    scenario = scenarios[0][1]
     seeds = [scenario.seed + i for i in range(args.seeds)]
     out = Path(args.out) if args.out else Path("runs") / f"compare-{scenario.name}"
     result, markdown = compare(Path(args.scenario), scenario, controllers, seeds, args.jobs, out)
@@ -212,10 +330,8 @@ def _emulate(argv: list[str]) -> int:
     return emulate(argv)
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="hil", description="Hardware-in-the-loop bench for PX4 quadrotors")
-    sub = parser.add_subparsers(dest="command", required=True)
-
+def _add_fmu_commands(sub: argparse._SubParsersAction) -> None:
+    """`hil fmu build | check | hover`."""
     fmu = sub.add_parser("fmu", help="build and check the plant FMU").add_subparsers(dest="fmu_command", required=True)
     build = fmu.add_parser("build", help="build Quadrotor.fmu from source (only if sources changed)")
     build.add_argument("--out", help="output path (default build/Quadrotor.fmu)")
@@ -228,6 +344,10 @@ def build_parser() -> argparse.ArgumentParser:
     hover.add_argument("--seconds", type=float, default=5.0)
     hover.add_argument("--altitude", type=float, default=2.0, help="hover altitude in m")
     hover.set_defaults(func=_cmd_fmu_hover)
+
+
+def _add_run_command(sub: argparse._SubParsersAction) -> None:
+    """`hil run`: every option of a flight."""
     run = sub.add_parser("run", help="fly a scenario through the HIL chain", description=(
         "Fly SCENARIO: the plant FMU and sensor models on this machine, the flight code on a board. Without "
         "--port the built-in emulator runs on a pty in lockstep. --px4 DIR starts PX4 SITL from a build "
@@ -235,7 +355,8 @@ def build_parser() -> argparse.ArgumentParser:
         "code path (a px4_sitl_nolockstep build) on a pty and flies the serial path a Pixhawk gets. With a "
         "Pixhawk (SYS_HITL=1) use --port /dev/ttyACM0 (wall-clock real time). With a PX4 SITL you started "
         "yourself use --port tcpin:127.0.0.1:4560 --mavlink udpout:127.0.0.1:14580. Exit codes: 0 pass, "
-        "1 expectations not met or the flight went wrong, 2 bad input, 3 board/link failure, 130 interrupted."))
+        "1 expectations not met or the flight went wrong, 2 bad input, 3 board/link failure, 4 internal error "
+        "(a bench bug; traceback in the run's bench.log), 130 interrupted."))
     run.add_argument("scenario", help="scenario YAML file")
     board = run.add_mutually_exclusive_group()
     board.add_argument("--port", help="board connection: /dev/ttyACM0, serial:PATH:BAUD, tcpin:HOST:PORT, tcp:, "
@@ -248,7 +369,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--connect-timeout", type=float, metavar="S",
                      help="seconds to wait for a board you attached (default 60 for PX4 SITL, 10 for serial)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
-    run.add_argument("--controller", choices=("smarc", "smpid", "backstepping"), help="override the emulator's controller")
+    run.add_argument("--controller", choices=CONTROLLERS,
+                     help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--runs", default="runs", help="where run directories go (default runs/)")
     run.add_argument("--gcs", action="append", metavar="ENDPOINT",
@@ -256,9 +378,18 @@ def build_parser() -> argparse.ArgumentParser:
                           "udpout:127.0.0.1:14550 where the bench holds the board's port; PX4 SITL has its own)")
     run.add_argument("--no-gcs", action="store_true", help="no ground-station relay")
     run.add_argument("--no-telemetry", action="store_true", help="do not publish on Zenoh")
+    run.add_argument("--keep-failed", action="store_true",
+                     help="keep the run directory of an attempt whose board never connected (removed by default)")
+    run.add_argument("--no-report", action="store_true", help="do not write report.html at the end of the run")
+    run.add_argument("--foxglove", nargs="?", const="127.0.0.1:8765", metavar="HOST:PORT",
+                     help="serve the run live to Foxglove over its WebSocket protocol (default 127.0.0.1:8765)")
     run.add_argument("--telemetry-rate", action="append", metavar="CHANNEL=HZ", help="e.g. state=100 (repeatable)")
     _add_zenoh_arguments(run)
     run.set_defaults(func=_cmd_run)
+
+
+def _add_live_commands(sub: argparse._SubParsersAction) -> None:
+    """`hil watch`, `hil echo`, `hil foxglove`: views of a run on Zenoh."""
     watch = sub.add_parser("watch", help="live view of a running bench (Zenoh)")
     target = watch.add_mutually_exclusive_group(required=True)
     target.add_argument("run_id", nargs="?", help="a run id (its run directory's name)")
@@ -270,12 +401,42 @@ def build_parser() -> argparse.ArgumentParser:
     echo.add_argument("key_expr")
     _add_zenoh_arguments(echo)
     echo.set_defaults(func=_cmd_echo)
+    foxglove = sub.add_parser("foxglove", help="serve a run seen on Zenoh (any machine's bench) to Foxglove")
+    foxglove.add_argument("run_id", nargs="?", help="a run id (default: the newest running bench)")
+    foxglove.add_argument("--listen", default="127.0.0.1:8765", metavar="HOST:PORT",
+                          help="Foxglove WebSocket address (default 127.0.0.1:8765)")
+    foxglove.add_argument("--wait", type=float, default=60.0, help="seconds to wait for a run to appear")
+    _add_zenoh_arguments(foxglove)
+    foxglove.set_defaults(func=_cmd_foxglove)
+
+
+def _add_file_commands(sub: argparse._SubParsersAction) -> None:
+    """`hil check`, `hil report`, `hil recover`: work on files."""
     check = sub.add_parser("check", help="validate scenario files without running them")
     check.add_argument("files", nargs="+")
     check.set_defaults(func=_cmd_check)
-    report = sub.add_parser("report", help="PNG figures of a run (cf. the paper's Figures 5-10)")
+    report = sub.add_parser("report", help="report.html of a run, and PNG figures (cf. the paper's Figures 5-18)")
     report.add_argument("run_dir")
+    report.add_argument("--paper-frame", action="store_true",
+                        help="draw the figures as the paper does (z up, angles γ = -roll, θ = -pitch, ψ, the paper's "
+                             "figure numbers) in report/paper_frame/; default: NED")
     report.set_defaults(func=_cmd_report)
+    recover = sub.add_parser("recover", help="rebuild a recording cut short (kill -9, power loss) into an "
+                                             "indexed MCAP")
+    recover.add_argument("run_dir")
+    recover.set_defaults(func=_cmd_recover)
+
+
+def _add_study_commands(sub: argparse._SubParsersAction) -> None:
+    """`hil sweep`, `hil compare`: many flights."""
+    sweep = sub.add_parser("sweep", help="Monte Carlo / parameter sweep of a scenario, on Dask (hil sweep SWEEP.yaml)")
+    sweep.add_argument("sweep", help="sweep YAML file (see sweeps/)")
+    sweep.add_argument("--jobs", type=int, default=2, help="LocalCluster worker processes (one run each at a time)")
+    sweep.add_argument("--cluster", metavar="ADDRESS", help="an existing Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    sweep.add_argument("--limit", type=int, help="fly only the first N samples")
+    sweep.add_argument("--resume", action="store_true", help="continue a stopped sweep in --out")
+    sweep.add_argument("--out", help="results directory (default runs/sweep-<name>)")
+    sweep.set_defaults(func=_cmd_sweep)
     compare = sub.add_parser("compare", help="fly a scenario with several controllers and compare (Tables 1-2)")
     compare.add_argument("scenario")
     compare.add_argument("--controllers", default="smarc,smpid,backstepping")
@@ -283,6 +444,14 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument("--jobs", type=int, default=2, help="flights in parallel (each is two processes)")
     compare.add_argument("--out", help="output directory (default runs/compare-<scenario>)")
     compare.set_defaults(func=_cmd_compare)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="hil", description="Hardware-in-the-loop bench for PX4 quadrotors")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    for add in (_add_fmu_commands, _add_run_command, _add_live_commands, _add_file_commands, _add_study_commands):
+        add(sub)
     ports = sub.add_parser("ports", help="list serial ports (where a Pixhawk shows up)")
     ports.set_defaults(func=_cmd_ports)
     sub.add_parser("emulate", add_help=False, help="run the software flight controller on a port "

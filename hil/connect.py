@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-import ctypes
-import signal
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -24,6 +22,7 @@ from firmware_interface.link import (
     parse_connection,
 )
 from hil.gcs import GcsBridge
+from hil.lifetime import die_with_parent
 from hil.px4 import Px4Build, Px4Process, claim_instance
 from hil.px4.hitl_startup import write_hitl_startup
 from hil.scenario.schema import Scenario
@@ -84,6 +83,11 @@ class BoardHandle:
         self.gcs = gcs
         for session in self.sessions:
             session.relay = []
+
+    def realtime_pids(self) -> list[int]:
+        """The board's processes a paced run raises to real-time priority with the bench: the emulator's
+        (a PX4 keeps the scheduling it gives its own tasks)."""
+        return [self.process.popen.pid] if isinstance(self.process, EmulatorProcess) else []
 
     def exit_note(self) -> str | None:
         """Why the board's process ended, when the bench started it and it is gone (a board failure's cause)."""
@@ -163,11 +167,6 @@ def open_board(port: str, mavlink: str | None, watchdog_s: float, wait_s: float 
     return handle
 
 
-def _die_with_parent() -> None:
-    """In the PX4 child: SIGTERM if the bench dies without stopping it (kill -9), so no PX4 is orphaned."""
-    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-
-
 def _started_by_us(px4: Px4Process) -> None:
     code = px4.exit_code()
     if code is not None:
@@ -189,7 +188,7 @@ def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     try:
         px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log",
                          {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1"},
-                         preexec=_die_with_parent)
+                         preexec=die_with_parent)
     except BaseException:
         listener.close()
         claim.release()
@@ -218,7 +217,7 @@ def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     try:
         script = write_hitl_startup(run_dir / "px4-hitl.rcS", pair.slave_path)
         px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
-                         extra_args=("-s", str(script)), preexec=_die_with_parent)
+                         extra_args=("-s", str(script)), preexec=die_with_parent)
     except BaseException:
         claim.release()
         pair.master.close()

@@ -5,11 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 from hil.scenario.environment import EnvironmentSample
 from hil.scenario.reference import RefSample
+from plant_fmu.state import PlantState
 
 
 @dataclass(slots=True)
@@ -17,8 +16,7 @@ class StepFrame:
     t_us: int  # bench (simulation) time
     mission_t: float  # s; negative before the reference starts
     phase: str
-    truth: np.ndarray  # plant outputs (plant_fmu.Plant.OUTPUT_NAMES order), a copy
-    on_ground: bool
+    truth: PlantState  # the plant after this step
     reference: RefSample | None
     readings: SensorReadings
     gps: GpsFix | None

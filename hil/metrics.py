@@ -8,129 +8,126 @@ from typing import Any
 
 import numpy as np
 
+from firmware_interface.emulator.geometry import quat_to_euler
 from hil.frame import StepFrame
 from hil.scenario.schema import Expect
-from plant_fmu.plant import REAL_OUTPUT_NAMES
-
-_OUT = {n: i for i, n in enumerate(REAL_OUTPUT_NAMES)}
-_POS = [_OUT[n] for n in ("pos_n", "pos_e", "pos_d")]
-_RPY = [_OUT[n] for n in ("roll", "pitch", "yaw")]
-
-
-def _quat_to_rpy(q: list[float]) -> tuple[float, float, float]:
-    w, x, y, z = q
-    return (math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)), math.asin(max(-1, min(1, 2 * (w * y - z * x)))),
-            math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+from hil.streaming_stats import Extremes, LogHistogram
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:
     return (a + np.pi) % (2 * np.pi) - np.pi
 
 
-def _stats(values: np.ndarray) -> dict[str, float]:
-    if len(values) == 0:
-        return {}
-    return {"min": float(values.min()), "max": float(values.max()), "rms": float(np.sqrt(np.mean(values**2))),
-            "max_abs": float(np.abs(values).max())}
+def _window_figures(t: float, mass: float, values: dict[str, float]) -> dict[str, float]:
+    """m̂ at the end of a payload window against the true mass there."""
+    return {"end_s": t, "true_mass_kg": mass, "m_hat_kg": values["m_hat"],
+            "error_pct": 100 * (values["m_hat"] - mass) / mass}
 
 
-def _percentiles(values: list[float]) -> dict[str, float]:
-    if not values:
-        return {}
-    a = np.array(values)
-    return {"p50": float(np.percentile(a, 50)), "p99": float(np.percentile(a, 99)), "max": float(a.max())}
+XYZ = ("x", "y", "z")
+RPY = ("roll", "pitch", "yaw")
 
 
 @dataclass
 class MetricsCollector:
-    """Collects what the metrics need during the mission; `compute` turns it into figures."""
+    """Accumulates what the metrics need during the run in constant memory (streaming statistics: an
+    hours-long run costs what a minute costs); `compute` turns it into figures."""
 
     settle_s: float
-    t: list[float] = field(default_factory=list)
-    pos: list[np.ndarray] = field(default_factory=list)
-    ref: list[np.ndarray] = field(default_factory=list)
-    attitude: list[tuple[float, np.ndarray, tuple[float, float, float]]] = field(default_factory=list)
-    estimates: list[tuple[float, float, dict[str, float]]] = field(default_factory=list)  # t, true mass, values
-    estimate_error: list[np.ndarray] = field(default_factory=list)  # board's LOCAL_POSITION_NED - truth, m
-    attitude_estimate_error: list[np.ndarray] = field(default_factory=list)  # board's ATTITUDE - truth, rad
-    step_wall_s: list[float] = field(default_factory=list)
-    round_trip_s: list[float] = field(default_factory=list)
-    step_starts: list[float] = field(default_factory=list)
+    position_error: Extremes = field(default_factory=lambda: Extremes(3))  # truth - reference, m, once settled
+    attitude_error: Extremes = field(default_factory=lambda: Extremes(3))  # truth - commanded, rad, once settled
+    estimate_error: Extremes = field(default_factory=lambda: Extremes(3))  # board's LOCAL_POSITION_NED - truth, m
+    attitude_estimate_error: Extremes = field(default_factory=lambda: Extremes(3))  # board's ATTITUDE - truth
+    step_wall: LogHistogram = field(default_factory=LogHistogram)
+    round_trip: LogHistogram = field(default_factory=LogHistogram)
+    period_error: LogHistogram = field(default_factory=LogHistogram)  # |step period - nominal|, real time
     late_steps: int = 0
+    slips: int = 0  # stalls after which the real-time schedule went on from the late moment
+    slipped_s: float = 0.0
+    steps: int = 0
     breakdown_s: dict[str, float] = field(default_factory=lambda: dict.fromkeys(
         ("environment", "plant", "sensors", "encode_and_send", "sinks_of_previous_step", "wait_for_board", "frame"),
         0.0))
     sim_s: float = 0.0
     wall_s: float = 0.0
+    mission_steps: int = 0
+    _last_step_start: float | None = None
+    _final_estimates: dict[str, float] | None = None
+    _windows: list[dict[str, float]] = field(default_factory=list)  # m̂ at the end of each payload window
+    _window: tuple[float, float, dict[str, float]] | None = None  # the current window's latest (t, mass, values)
 
     def add(self, frame: StepFrame) -> None:
-        self.step_wall_s.append(frame.step_wall_s)
+        self.steps += 1
+        self.step_wall.add(frame.step_wall_s)
         if frame.round_trip_s is not None:
-            self.round_trip_s.append(frame.round_trip_s)
+            self.round_trip.add(frame.round_trip_s)
         if frame.phase != "mission" or frame.reference is None:
             return
-        self.t.append(frame.mission_t)
-        self.pos.append(frame.truth[_POS])
-        self.ref.append(frame.reference.pos_ned)
+        self.mission_steps += 1
+        settled = frame.mission_t >= self.settle_s
+        if settled:
+            self.position_error.add(frame.truth.pos_ned - frame.reference.pos_ned)
         for kind, payload in frame.board:
-            if kind == "ATTITUDE_TARGET":
-                self.attitude.append((frame.mission_t, frame.truth[_RPY], _quat_to_rpy(payload["q"])))
+            if kind == "ATTITUDE_TARGET" and settled:
+                self.attitude_error.add(_wrap(frame.truth.rpy - quat_to_euler(payload["q"])))
             elif kind == "DEBUG_FLOAT_ARRAY":
-                self.estimates.append((frame.mission_t, float(frame.truth[_OUT["total_mass"]]), payload["values"]))
+                self._add_estimates(frame.mission_t, frame.truth.total_mass_kg, payload["values"])
+
+    def add_step_start(self, start_s: float, period_s: float) -> None:
+        """Real-time pacing: the wall-clock start of a step, for the period jitter."""
+        if self._last_step_start is not None:
+            self.period_error.add(abs(start_s - self._last_step_start - period_s))
+        self._last_step_start = start_s
+
+    def add_slip(self, behind_s: float) -> None:
+        self.slips += 1
+        self.slipped_s += behind_s
+
+    def _add_estimates(self, t: float, mass: float, values: dict[str, float]) -> None:
+        self._final_estimates = values
+        if self._window is not None and self._window[1] != mass:
+            self._close_window()
+        self._window = (t, mass, values)
+
+    def _close_window(self) -> None:
+        if self._window is not None and "m_hat" in self._window[2]:
+            self._windows.append(_window_figures(*self._window))
 
     def add_estimate_error(self, error_ned: np.ndarray) -> None:
         """The board's own position estimate minus the truth (its frame offset at arming removed): a property
         of the flight stack under test, reported beside the tracking error."""
-        self.estimate_error.append(error_ned)
+        self.estimate_error.add(error_ned)
 
     def add_attitude_estimate_error(self, error_rpy: np.ndarray) -> None:
-        self.attitude_estimate_error.append(error_rpy)
+        self.attitude_estimate_error.add(_wrap(error_rpy))
 
     def compute(self, link_counters: dict[str, int], realtime: bool, period_s: float) -> dict[str, Any]:
-        t = np.array(self.t)
-        settled = t >= self.settle_s
         result: dict[str, Any] = {"settle_s": self.settle_s}
-        if settled.any():
-            err = (np.array(self.pos) - np.array(self.ref))[settled]
-            result["position_error_m"] = {axis: _stats(err[:, i]) for i, axis in enumerate("xyz")}
-        att = [(tt, truth, np.array(cmd)) for tt, truth, cmd in self.attitude if tt >= self.settle_s]
-        if att:
-            err = _wrap(np.array([a[1] - a[2] for a in att]))
-            result["attitude_error_deg"] = {axis: _stats(np.degrees(err[:, i])) for i, axis in
-                                            enumerate(("roll", "pitch", "yaw"))}
-        if self.estimate_error:
-            err = np.array(self.estimate_error)
-            result["board_estimate_error_m"] = {axis: _stats(err[:, i]) for i, axis in enumerate("xyz")}
-        if self.attitude_estimate_error:
-            err = np.degrees(_wrap(np.array(self.attitude_estimate_error)))
-            result["board_attitude_estimate_error_deg"] = {axis: _stats(err[:, i])
-                                                           for i, axis in enumerate(("roll", "pitch", "yaw"))}
-        if self.estimates:
+        figures = {"position_error_m": self.position_error.stats(XYZ),
+                   "attitude_error_deg": self.attitude_error.stats(RPY, math.degrees(1.0)),
+                   "board_estimate_error_m": self.estimate_error.stats(XYZ),
+                   "board_attitude_estimate_error_deg": self.attitude_estimate_error.stats(RPY, math.degrees(1.0))}
+        result.update({name: value for name, value in figures.items() if value})
+        if self._final_estimates is not None:
             result["board_estimates"] = self._estimates()
         wall = self.wall_s
         result["timing"] = {
             "sim_s": self.sim_s, "wall_s": wall, "realtime_factor": self.sim_s / wall if wall > 0 else None,
-            "step_wall_us": _percentiles([s * 1e6 for s in self.step_wall_s]),
-            "round_trip_us": _percentiles([s * 1e6 for s in self.round_trip_s]),
-            "breakdown_us_per_step": {k: v / max(len(self.step_wall_s), 1) * 1e6 for k, v in self.breakdown_s.items()},
+            "step_wall_us": self.step_wall.summary(1e6), "round_trip_us": self.round_trip.summary(1e6),
+            "breakdown_us_per_step": {k: v / max(self.steps, 1) * 1e6 for k, v in self.breakdown_s.items()},
         }
-        if realtime and len(self.step_starts) > 1:
-            periods = np.diff(self.step_starts)
-            result["timing"]["period_jitter_us"] = _percentiles(list(np.abs(periods - period_s) * 1e6))
+        if realtime and self.period_error.n:
+            result["timing"]["period_jitter_us"] = self.period_error.summary(1e6)
             result["timing"]["late_steps"] = self.late_steps
+            result["timing"]["slips"] = {"count": self.slips, "total_s": self.slipped_s}
         result["link"] = link_counters
         return result
 
     def _estimates(self) -> dict[str, Any]:
-        final = self.estimates[-1][2]
-        out: dict[str, Any] = {"final": final}
-        if "m_hat" in final:
-            windows: list[dict[str, float]] = []
-            for i, (tt, mass, values) in enumerate(self.estimates):
-                last_of_window = i + 1 == len(self.estimates) or self.estimates[i + 1][1] != mass
-                if last_of_window:
-                    windows.append({"end_s": tt, "true_mass_kg": mass, "m_hat_kg": values["m_hat"],
-                                    "error_pct": 100 * (values["m_hat"] - mass) / mass})
+        out: dict[str, Any] = {"final": self._final_estimates}
+        windows = self._windows + ([_window_figures(*self._window)]
+                                   if self._window is not None and "m_hat" in self._window[2] else [])
+        if windows:
             out["mass_estimate_windows"] = windows
         return out
 
@@ -146,10 +143,11 @@ def check_expectations(expect: Expect | None, metrics: dict[str, Any]) -> list[s
         if not pos:
             failures.append("no settled mission samples to check the position error")
         else:
-            for axis, limit in zip("xyz", limits):
+            for axis, limit in zip("xyz", limits, strict=True):
                 found = pos[axis]["max_abs"]
                 if found > limit:
-                    failures.append(f"max |e_{axis}| = {found:.3f} m after {expect.settle_s:g} s, expected ≤ {limit:g} m")
+                    failures.append(f"max |e_{axis}| = {found:.3f} m after {expect.settle_s:g} s, "
+                                    f"expected ≤ {limit:g} m")
     if expect.max_attitude_error_deg is not None:
         att = metrics.get("attitude_error_deg")
         if not att:
@@ -163,3 +161,11 @@ def check_expectations(expect: Expect | None, metrics: dict[str, Any]) -> list[s
         if rtf < expect.min_realtime_factor:
             failures.append(f"real-time factor = {rtf:.2f}, expected ≥ {expect.min_realtime_factor:g}")
     return failures
+
+
+def slip_note(timing: dict[str, Any]) -> str:
+    """", slipped N x (T ms in all)" for a paced run whose schedule slipped after stalls, else ""."""
+    slips = timing.get("slips") or {}
+    if not slips.get("count"):
+        return ""
+    return f", slipped {slips['count']}x ({slips['total_s'] * 1e3:.0f} ms in all)"

@@ -1,8 +1,13 @@
 """The run directory: scenario as resolved, meta, a full-rate MCAP recording, metrics and summary.
 
-Written incrementally: the MCAP writer emits small chunks and the file is flushed with each, so a
-crash leaves everything up to the last chunk readable (mcap's StreamReader reads a file without its
-summary section); a normal end, Ctrl-C or a lost link close the file properly.
+The recording has one JSON channel per sample type, each with its own JSON Schema (`hil.channels`),
+beside Foxglove's well-known messages (`hil.foxglove_messages`); the resolved scenario, the run meta
+and the final metrics are MCAP metadata records. Log times are the wall-clock start of the run plus
+simulated time, so a viewer shows the real date; every sample keeps its simulated `t_us`.
+
+Written incrementally: the MCAP writer emits 1 MiB chunks and the file is flushed with each, so a
+crash leaves everything up to the last chunk readable (`hil recover` rebuilds the index); a normal
+end, Ctrl-C or a lost link close the file properly.
 """
 
 from __future__ import annotations
@@ -10,7 +15,9 @@ from __future__ import annotations
 import json
 import platform
 import subprocess
-from datetime import datetime, timezone
+import time
+from collections.abc import Callable
+from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -19,17 +26,23 @@ import orjson
 import yaml
 from mcap.writer import CompressionType, Writer
 
+from firmware_interface.geodesy import LocalFrame
+from hil.channels import (
+    BOARD_CHANNEL,
+    RECORDED_CHANNELS,
+    TOPIC_PREFIX,
+    json_schema,
+    schema_name,
+)
+from hil.foxglove_messages import FOXGLOVE_TOPICS, FoxgloveViews
 from hil.frame import StepFrame
-from plant_fmu.plant import REAL_OUTPUT_NAMES
+from hil.stop_signals import uninterrupted
 
-CHANNELS = ("state", "reference", "sensors/imu", "sensors/gps", "sensors/baro", "sensors/mag", "actuators",
-            "environment", "board", "timing", "events")
-_OUT = {n: i for i, n in enumerate(REAL_OUTPUT_NAMES)}
+# The writer keeps an index entry per chunk in memory until the file's summary is written: 1 MiB chunks
+# (about 2.3 s of simulated time at 250 Hz, all channels: ~440 KiB/s) keep that under ~5 MB for a 2-hour run, and
+# are what a crash can lose (the last, unfinished chunk).
+CHUNK_BYTES = 1024 * 1024
 _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
-
-
-def _vec(out: Any, *names: str) -> list[float]:
-    return [float(out[_OUT[n]]) for n in names]
 
 
 def frame_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
@@ -41,13 +54,12 @@ def frame_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
 
 
 def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
-    out, t = frame.truth, frame.t_us
+    s, t = frame.truth, frame.t_us
     messages: list[tuple[str, dict[str, Any]]] = [
-        ("state", {"t_us": t, "pos_ned": _vec(out, "pos_n", "pos_e", "pos_d"),
-                   "vel_ned": _vec(out, "vel_n", "vel_e", "vel_d"), "q_wxyz": _vec(out, "q_w", "q_x", "q_y", "q_z"),
-                   "rpy": _vec(out, "roll", "pitch", "yaw"), "rates_frd": _vec(out, "rate_x", "rate_y", "rate_z"),
-                   "thrust_total": float(out[_OUT["thrust_total"]]), "total_mass": float(out[_OUT["total_mass"]]),
-                   "on_ground": frame.on_ground, "phase": frame.phase, "mission_t": frame.mission_t}),
+        ("state", {"t_us": t, "pos_ned": s.pos_ned.tolist(), "vel_ned": s.vel_ned.tolist(),
+                   "acc_ned": s.acc_ned.tolist(), "q_wxyz": s.q_wxyz.tolist(), "rpy": s.rpy.tolist(),
+                   "rates_frd": s.rates_frd.tolist(), "thrust_total": s.thrust_total_n, "total_mass": s.total_mass_kg,
+                   "on_ground": s.on_ground, "phase": frame.phase, "mission_t": frame.mission_t}),
         ("sensors/imu", {"t_us": t, "accel_frd": frame.readings.accel_frd, "gyro_frd": frame.readings.gyro_frd}),
         ("actuators", {"t_us": t, "motors": frame.motors, "armed": frame.armed}),
         ("environment", {"t_us": t, "wind_ned": frame.environment.wind_ned, "force_ned": frame.environment.force_ned,
@@ -72,12 +84,12 @@ def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
                                          "alt_msl_m": g.alt_msl_m, "vel_ned": g.vel_ned, "eph_m": g.eph_m,
                                          "epv_m": g.epv_m, "fix_type": g.fix_type, "satellites": g.satellites}))
     for kind, payload in frame.board:
-        messages.append(("board", {"t_us": t, "message": kind, **payload}))
+        messages.append((BOARD_CHANNEL[kind], {"t_us": t, **payload}))
     return messages
 
 
 def make_run_dir(root: Path, scenario_name: str) -> Path:
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S.%fZ")
+    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%S.%fZ")
     path = root / f"{stamp}-{scenario_name}"
     path.mkdir(parents=True, exist_ok=False)
     return path
@@ -102,28 +114,55 @@ def git_revision() -> str:
 class Recorder:
     """Owns the run directory of one run."""
 
-    def __init__(self, run_dir: Path, resolved_scenario: dict[str, Any], meta: dict[str, Any]) -> None:
+    def __init__(self, run_dir: Path, resolved_scenario: dict[str, Any], meta: dict[str, Any],
+                 local_frame: LocalFrame, scene: Callable[[int], Any] | None = None) -> None:
         self.dir = run_dir
-        (run_dir / "scenario.yaml").write_text(yaml.safe_dump(resolved_scenario, sort_keys=False))
+        self.start_ns = time.time_ns()
+        scenario_text = yaml.safe_dump(resolved_scenario, sort_keys=False)
+        (run_dir / "scenario.yaml").write_text(scenario_text)
         versions = {p: _version(p) for p in ("hil-bench", "fmpy", "pymavlink", "numpy", "eclipse-zenoh")}
-        meta = {**meta, "versions": {**versions, "python": platform.python_version()}, "git_revision": git_revision()}
-        (run_dir / "meta.json").write_text(json.dumps(meta, indent=2, default=str))
+        meta = {**meta, "versions": {**versions, "python": platform.python_version()}, "git_revision": git_revision(),
+                "start_unix_ns": self.start_ns}
+        meta_text = json.dumps(meta, indent=2, default=str)
+        (run_dir / "meta.json").write_text(meta_text)
         self._file = open(run_dir / "recording.mcap", "wb")  # noqa: SIM115 - closed in close()
-        self._writer = Writer(self._file, chunk_size=64 * 1024, compression=CompressionType.ZSTD)
+        self._writer = Writer(self._file, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
         self._writer.start(profile="", library="hil-bench")
-        schema = self._writer.register_schema("hil.Sample", "jsonschema", b'{"type": "object"}')
-        self._channels = {name: self._writer.register_channel(f"hil/{name}", "json", schema) for name in CHANNELS}
+        self._writer.add_metadata("scenario", {"yaml": scenario_text})
+        self._writer.add_metadata("run", {"json": meta_text})
+        self._channels = {name: self._register_json(name) for name in RECORDED_CHANNELS}
+        self._foxglove = {topic: self._register_foxglove(topic, kind) for topic, kind in FOXGLOVE_TOPICS.items()}
+        self._views = FoxgloveViews(local_frame, self.start_ns)
         self._last_flush_bytes = 0
         self.closed = False
+        if scene is not None:
+            self._add_foxglove("foxglove/scene", scene(self.start_ns), self.start_ns)
+
+    def _register_json(self, name: str) -> int:
+        schema = self._writer.register_schema(schema_name(name), "jsonschema", json_schema(name))
+        return self._writer.register_channel(TOPIC_PREFIX + name, "json", schema)
+
+    def _register_foxglove(self, topic: str, kind: Any) -> int:
+        definition = kind.get_schema()
+        schema = self._writer.register_schema(definition.name, definition.encoding, definition.data)
+        return self._writer.register_channel(topic, "protobuf", schema)
+
+    def _add_foxglove(self, topic: str, message: Any, log_ns: int) -> None:
+        data = message.encode()
+        with uninterrupted():
+            self._writer.add_message(self._foxglove[topic], log_ns, data, log_ns)
 
     def record(self, frame: StepFrame) -> None:
         self.write_messages(frame.t_us, frame_messages(frame))
 
     def write_messages(self, t_us: int, messages: list[tuple[str, dict[str, Any]]]) -> None:
-        stamp = t_us * 1000
+        stamp = self.start_ns + t_us * 1000
         add, channels = self._writer.add_message, self._channels
-        for channel, payload in messages:
-            add(channels[channel], stamp, orjson.dumps(payload, option=_JSON_OPTIONS), stamp)
+        encoded = [(channels[channel], orjson.dumps(payload, option=_JSON_OPTIONS)) for channel, payload in messages]
+        views = [(self._foxglove[topic], message.encode()) for topic, message in self._views.messages(messages)]
+        with uninterrupted():  # a stop signal here would leave half a record in the chunk
+            for channel_id, data in (*encoded, *views):
+                add(channel_id, stamp, data, stamp)
         position = self._file.tell()
         if position != self._last_flush_bytes:  # a chunk went out: push it to disk
             self._file.flush()
@@ -133,9 +172,11 @@ class Recorder:
         self.write_messages(t_us, [("events", {"t_us": t_us, "text": text})])
 
     def finish(self, metrics: dict[str, Any], summary: str) -> None:
+        metrics_text = json.dumps(metrics, indent=2, default=float)
         if not self.closed:
             self.closed = True
+            self._writer.add_metadata("metrics", {"json": metrics_text, "summary": summary})
             self._writer.finish()
             self._file.close()
-        (self.dir / "metrics.json").write_text(json.dumps(metrics, indent=2, default=float))
+        (self.dir / "metrics.json").write_text(metrics_text)
         (self.dir / "summary.txt").write_text(summary)

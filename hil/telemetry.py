@@ -10,6 +10,7 @@ channel, in samples per second of simulated time (equal to wall time when paced 
 from __future__ import annotations
 
 import json
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,15 +20,44 @@ from typing import Any
 import orjson
 import zenoh
 
+from hil.channels import CHANNEL_MODELS
 from hil.frame import StepFrame
-from hil.recorder import CHANNELS, frame_messages
+from hil.recorder import frame_messages
 
 DEFAULT_RATES_HZ: dict[str, float] = {
     "state": 50.0, "reference": 50.0, "sensors/imu": 50.0, "sensors/gps": 10.0, "sensors/baro": 10.0,
-    "sensors/mag": 10.0, "actuators": 50.0, "environment": 10.0, "board": 50.0, "timing": 10.0, "events": 1e9,
+    "sensors/mag": 10.0, "actuators": 50.0, "environment": 10.0, "timing": 10.0,
 }
+LINK_PERIOD_US = 1_000_000
 KEY_PREFIX = "hil"
 FLUSH_S = 0.2
+
+
+class Decimator:
+    """Which samples a live view passes on: each continuous channel at its rate (samples per second of
+    simulated time); board messages and events, which are sparse and each matter, all of them."""
+
+    def __init__(self, rates_hz: dict[str, float] | None = None) -> None:
+        rates = {**DEFAULT_RATES_HZ, **(rates_hz or {})}
+        self._period_us = {c: int(1e6 / r) for c, r in rates.items()}
+        self._next_us = dict.fromkeys(rates, 0)
+        self._next_link_us = 0
+
+    def passes(self, channel: str, t_us: int) -> bool:
+        period = self._period_us.get(channel)
+        if period is None:
+            return True
+        if t_us < self._next_us[channel]:
+            return False
+        self._next_us[channel] = max(self._next_us[channel] + period, t_us)
+        return True
+
+    def link_due(self, t_us: int) -> bool:
+        """Once per simulated second: time to send the link counters."""
+        if t_us < self._next_link_us:
+            return False
+        self._next_link_us = t_us + LINK_PERIOD_US
+        return True
 
 
 @dataclass
@@ -39,6 +69,14 @@ class ZenohOptions:
     listen: list[str] = field(default_factory=list)
     config_file: Path | None = None
     multicast_scouting: bool = True
+
+
+def close_within(close: Callable[[], None], timeout_s: float = 1.0) -> None:
+    """Run a Zenoh close in a daemon thread and wait at most `timeout_s`: a stalled or vanished peer can
+    hold a session's close for many seconds, and nobody should wait for it."""
+    closer = threading.Thread(target=close, name="zenoh-close", daemon=True)
+    closer.start()
+    closer.join(timeout_s)
 
 
 def open_session(options: ZenohOptions) -> zenoh.Session:
@@ -61,37 +99,31 @@ class TelemetryPublisher:
         self.session = session
         self.run_id = run_id
         self.prefix = f"{KEY_PREFIX}/{run_id}"
-        rates = {**DEFAULT_RATES_HZ, **(rates_hz or {})}
-        self._period_us = {c: int(1e6 / rates[c]) for c in CHANNELS}
-        self._next_us = dict.fromkeys(CHANNELS, 0)
+        self._decimator = Decimator(rates_hz)
         json_encoding = zenoh.Encoding.APPLICATION_JSON
         self._publishers = {
             c: session.declare_publisher(f"{self.prefix}/{c}", encoding=json_encoding,
                                          congestion_control=zenoh.CongestionControl.DROP)
-            for c in CHANNELS
+            for c in CHANNEL_MODELS
         }
         # the summary is sent once, after the loop: it may wait for the network rather than be dropped
         self._publishers["summary"] = session.declare_publisher(f"{self.prefix}/summary", encoding=json_encoding,
                                                                 congestion_control=zenoh.CongestionControl.BLOCK)
         meta_payload = orjson.dumps(meta, default=str)
         self._queryable = session.declare_queryable(
-            f"{self.prefix}/meta", lambda query: query.reply(f"{self.prefix}/meta", meta_payload, encoding=json_encoding))
+            f"{self.prefix}/meta",
+            lambda query: query.reply(f"{self.prefix}/meta", meta_payload, encoding=json_encoding))
         self._token = session.liveliness().declare_token(self.prefix)
         self._link_counters = link_counters
-        self._next_link_us = 0
         self.published = 0
 
     def __call__(self, frame: StepFrame) -> None:
-        t_us = frame.t_us
+        t_us, passes = frame.t_us, self._decimator.passes
         for channel, payload in frame_messages(frame):
-            if channel not in ("board", "events"):
-                if t_us < self._next_us[channel]:
-                    continue
-                self._next_us[channel] = max(self._next_us[channel] + self._period_us[channel], t_us)
-            self._put(channel, payload)
-        if self._link_counters is not None and t_us >= self._next_link_us:
-            self._next_link_us = t_us + 1_000_000
-            self._put("board", {"t_us": t_us, "message": "LINK", **self._link_counters()})
+            if passes(channel, t_us):
+                self._put(channel, payload)
+        if self._link_counters is not None and self._decimator.link_due(t_us):
+            self._put("board/link", {"t_us": t_us, **self._link_counters()})
 
     def event(self, t_us: int, text: str) -> None:
         self._put("events", {"t_us": t_us, "text": text})

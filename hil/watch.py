@@ -6,15 +6,17 @@ import math
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 import orjson
 import zenoh
-from rich.console import Group
+from rich.console import Group, RenderableType
 from rich.live import Live
 from rich.table import Table
 
-from hil.telemetry import KEY_PREFIX, ZenohOptions, open_session
+from firmware_interface.emulator.geometry import quat_to_euler
+from hil.telemetry import KEY_PREFIX, ZenohOptions, close_within, open_session
 
 REFRESH_HZ = 4.0
 
@@ -40,6 +42,22 @@ class RunFinder:
     def latest(self) -> str | None:
         return max(self.alive) if self.alive else None  # run ids start with their UTC start time
 
+    def wait_latest(self, wait_s: float) -> str | None:
+        """The newest running bench, waiting up to `wait_s` for one to appear."""
+        return self._wait(self.latest, wait_s)
+
+    def wait_for(self, run_id: str, wait_s: float) -> str | None:
+        """`run_id` once it runs (its token is up), waiting up to `wait_s`; None for a run that is unknown
+        or has ended."""
+        return self._wait(lambda: run_id if run_id in self.alive else None, wait_s)
+
+    def _wait(self, found: Callable[[], str | None], wait_s: float) -> str | None:
+        deadline = time.monotonic() + wait_s
+        while (run_id := found()) is None and time.monotonic() < deadline:
+            self.changed.wait(0.2)
+            self.changed.clear()
+        return run_id
+
     def close(self) -> None:
         self._subscriber.undeclare()
 
@@ -64,13 +82,9 @@ class RunView:
             return
         with self.lock:
             if channel == "events":
-                self.events = (self.events + [f"{data['t_us'] / 1e6:8.2f} s  {data['text']}"])[-6:]
+                self.events = [*self.events, f"{data['t_us'] / 1e6:8.2f} s  {data['text']}"][-6:]
             elif channel == "summary":
                 self.summary = data["text"]
-            elif channel == "board" and data.get("message") == "LINK":
-                self.latest["link"] = data
-            elif channel == "board":
-                self.latest[f"board/{data.get('message')}"] = data
             else:
                 self.latest[channel] = data
             if self.first_t_us is None and "t_us" in data:
@@ -91,36 +105,37 @@ class RunView:
         pos, ref_pos = state.get("pos_ned"), ref.get("pos_ned")
         row("position (m)", pos)
         row("reference (m)", ref_pos)
-        row("error (m)", [p - r for p, r in zip(pos, ref_pos)] if pos and ref_pos else None)
+        row("error (m)", [p - r for p, r in zip(pos, ref_pos, strict=True)] if pos and ref_pos else None)
         row("velocity (m/s)", state.get("vel_ned"))
         row("roll/pitch/yaw (deg)", [math.degrees(a) for a in state["rpy"]] if "rpy" in state else None, "{:+8.2f}")
-        target = latest.get("board/ATTITUDE_TARGET")
+        target = latest.get("board/attitude_target")
         if target:
-            w, x, y, z = target["q"]
-            cmd = (math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)), math.asin(max(-1, min(1, 2 * (w * y - z * x)))),
-                   math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+            cmd = quat_to_euler(target["q"])
             row("commanded (deg)", [math.degrees(a) for a in cmd], "{:+8.2f}")
         env = latest.get("environment", {})
         row("wind (m/s)", env.get("wind_ned"))
         motors = latest.get("actuators", {}).get("motors")
-        lines = [table]
+        lines: list[RenderableType] = [table]
         info = Table.grid(padding=(0, 2))
         sim_s = state.get("t_us", 0) / 1e6
         wall = time.monotonic() - self.started_wall
         rtf = (state.get("t_us", 0) - (self.first_t_us or 0)) / 1e6 / wall if wall > 0.5 else float("nan")
-        info.add_row("phase", str(state.get("phase", "–")), "sim time", f"{sim_s:.1f} s", "real-time factor", f"{rtf:.1f}x")
+        info.add_row("phase", str(state.get("phase", "–")), "sim time", f"{sim_s:.1f} s",
+                     "real-time factor", f"{rtf:.1f}x")
         info.add_row("motors", " ".join(f"{m:.2f}" for m in motors) if motors else "–",
-                     "payload", f"{env.get('payload_kg', 0.0):.2f} kg", "armed", str(latest.get("actuators", {}).get("armed")))
-        link = latest.get("link")
+                     "payload", f"{env.get('payload_kg', 0.0):.2f} kg",
+                     "armed", str(latest.get("actuators", {}).get("armed")))
+        link = latest.get("board/link")
         if link:
-            errors = {k: v for k, v in link.items() if k not in ("t_us", "message", "frames_in", "frames_out",
+            errors = {k: v for k, v in link.items() if k not in ("t_us", "frames_in", "frames_out",
                                                                   "bytes_in", "bytes_out") and v}
             info.add_row("link", f"{link.get('frames_in', 0)} in / {link.get('frames_out', 0)} out", "errors",
                          str(errors or "none"), "", "")
-        debug = latest.get("board/DEBUG_FLOAT_ARRAY")
+        debug = latest.get("board/estimates")
         if debug:
             values = debug.get("values", {})
-            info.add_row("board estimates", "  ".join(f"{k} {v:+.3f}" for k, v in list(values.items())[:5]), "", "", "", "")
+            info.add_row("board estimates", "  ".join(f"{k} {v:+.3f}" for k, v in list(values.items())[:5]),
+                         "", "", "", "")
         lines.append(info)
         lines.extend(events)
         return Group(*lines)
@@ -132,15 +147,12 @@ def watch(run_id: str | None, options: ZenohOptions, wait_s: float = 60.0) -> in
     finder = RunFinder(session)
     subscriber = None
     try:
-        deadline = time.monotonic() + wait_s
-        while run_id is None:
-            run_id = finder.latest()
-            if run_id is None:
-                if time.monotonic() > deadline:
-                    print(f"hil watch: no running bench seen within {wait_s:g} s", file=sys.stderr)
-                    return 1
-                finder.changed.wait(0.2)
-                finder.changed.clear()
+        wanted = run_id
+        run_id = finder.wait_for(wanted, wait_s) if wanted else finder.wait_latest(wait_s)
+        if run_id is None:
+            what = f"run {wanted} is not running (unknown, or it has ended)" if wanted else "no running bench seen"
+            print(f"hil watch: {what} within {wait_s:g} s", file=sys.stderr)
+            return 1
         view = RunView(run_id)
         subscriber = session.declare_subscriber(f"{KEY_PREFIX}/{run_id}/**", view.on_sample)
         with Live(view.render(), refresh_per_second=REFRESH_HZ, transient=False) as live:
@@ -157,7 +169,7 @@ def watch(run_id: str | None, options: ZenohOptions, wait_s: float = 60.0) -> in
         if subscriber is not None:
             subscriber.undeclare()
         finder.close()
-        session.close()
+        close_within(session.close)
 
 
 def echo(key_expr: str, options: ZenohOptions) -> int:
@@ -182,5 +194,8 @@ def echo(key_expr: str, options: ZenohOptions) -> int:
     except KeyboardInterrupt:
         return 0
     finally:
-        subscriber.undeclare()
-        session.close()
+        def close() -> None:
+            subscriber.undeclare()
+            session.close()
+
+        close_within(close)

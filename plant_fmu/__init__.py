@@ -2,5 +2,6 @@
 
 from plant_fmu.build import FmuBuildError, build_fmu, ensure_fmu
 from plant_fmu.plant import Plant, PlantError
+from plant_fmu.state import PlantState
 
-__all__ = ["FmuBuildError", "Plant", "PlantError", "build_fmu", "ensure_fmu"]
+__all__ = ["FmuBuildError", "Plant", "PlantError", "PlantState", "build_fmu", "ensure_fmu"]

@@ -9,9 +9,7 @@ import numpy as np
 
 from plant_fmu.hover import rotor_command_for_thrust
 from plant_fmu.plant import Plant
-from plant_fmu.variables import PARAMETERS
-
-DEFAULTS = {v.name: float(v.start) for v in PARAMETERS}
+from plant_fmu.variables import PARAMETER_DEFAULTS as DEFAULTS
 
 
 def fly_hover(seconds: float, altitude_m: float = 2.0, dt_s: float = 0.004) -> list[tuple[float, float, float]]:
@@ -26,8 +24,8 @@ def fly_hover(seconds: float, altitude_m: float = 2.0, dt_s: float = 0.004) -> l
         inputs[health] = 1.0
         out = plant.outputs()
         i_d, i_vd = plant.output_index["pos_d"], plant.output_index["vel_d"]
-        steps = int(round(seconds / dt_s))
-        per_second = int(round(1 / dt_s))
+        steps = round(seconds / dt_s)
+        per_second = round(1 / dt_s)
         for n in range(steps):
             error = (-altitude_m) - out[i_d]
             accel_up = -(2.0 * error - 2.5 * out[i_vd])  # PD on altitude, ~1 s settling

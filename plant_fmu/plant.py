@@ -7,14 +7,16 @@ pre-built ctypes arrays of value references, so a bench step costs microseconds.
 from __future__ import annotations
 
 import ctypes
+import re
 import shutil
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
+from typing import Self
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi2 import (
     FMU2Slave,
     fmi2CallbackAllocateMemoryTYPE,
@@ -22,13 +24,24 @@ from fmpy.fmi2 import (
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
 )
-from fmpy import calloc, free
 
 from plant_fmu.build import ensure_fmu
-from plant_fmu.variables import INPUT_NAMES, OUTPUTS, PARAMETER_NAMES, VR
+from plant_fmu.state import REAL_OUTPUT_NAMES, PlantState
+from plant_fmu.variables import INPUT_NAMES, PARAMETER_NAMES, VR, span
 
-REAL_OUTPUT_NAMES: tuple[str, ...] = tuple(v.name for v in OUTPUTS if not v.boolean)
+_MOTORS, _HEALTH = span(INPUT_NAMES, "motor_cmd_1", 4), span(INPUT_NAMES, "motor_health_1", 4)
+_WIND, _FORCE = span(INPUT_NAMES, "wind_n", 3), span(INPUT_NAMES, "f_dist_n", 3)
+_TORQUE, _PAYLOAD = span(INPUT_NAMES, "tau_dist_x", 3), INPUT_NAMES.index("payload_mass")
 _FMI_OK_OR_WARNING = 1
+
+
+_VARIABLE_NUMBER = re.compile(r"variable (\d+)")
+_NAME_OF_VR = {vr: name for name, vr in VR.items()}
+
+
+def _named(fmu_message: str) -> str:
+    """The FMU names variables by value reference; a user knows them by name."""
+    return _VARIABLE_NUMBER.sub(lambda m: f"variable {_NAME_OF_VR.get(int(m.group(1)), m.group(1))}", fmu_message)
 
 
 class PlantError(RuntimeError):
@@ -76,7 +89,8 @@ class Plant:
         self._in_values = (ctypes.c_double * len(INPUT_NAMES))()
         self._out_vr = _vr_array(REAL_OUTPUT_NAMES)
         self._out_values = (ctypes.c_double * len(REAL_OUTPUT_NAMES))()
-        self._out_view = np.frombuffer(self._out_values, dtype=np.float64)
+        self._in_view = np.ctypeslib.as_array(self._in_values)
+        self._out_view = np.ctypeslib.as_array(self._out_values)
         self._ground_vr = (ctypes.c_uint * 1)(VR["on_ground"])
         self._ground_value = (ctypes.c_int * 1)()
         self.input_index = {n: i for i, n in enumerate(INPUT_NAMES)}
@@ -86,7 +100,7 @@ class Plant:
         self._initialize(parameters or {}, initial_inputs)
 
     def _make_callbacks(self) -> fmi2CallbackFunctions:
-        def logger(env, name, status, category, message) -> None:  # noqa: ANN001 (ctypes signature)
+        def logger(env, name, status, category, message) -> None:
             self._log.append(message.decode(errors="replace") if message else "")
 
         callbacks = fmi2CallbackFunctions()
@@ -98,7 +112,7 @@ class Plant:
     def _check(self, status: int, what: str) -> None:
         if status > _FMI_OK_OR_WARNING:
             detail = self._log[-1] if self._log else "no message from the FMU"
-            raise PlantError(f"{what} failed at t = {self.t:.6f} s: {detail}")
+            raise PlantError(f"{what} failed at t = {self.t:.6f} s: {_named(detail)}")
 
     def _initialize(self, parameters: Mapping[str, float], initial_inputs: np.ndarray | None) -> None:
         unknown = sorted(set(parameters) - set(PARAMETER_NAMES) - set(INPUT_NAMES))
@@ -124,8 +138,22 @@ class Plant:
 
     def set_inputs(self, values: np.ndarray) -> None:
         """Set every input at once, in `INPUT_NAMES` order."""
-        self._in_values[:] = values
+        self._in_view[:] = values
         self._check(self._set_real(self._component, self._in_vr, len(INPUT_NAMES), self._in_values), "setting inputs")
+
+    def set_input_groups(self, motor_cmds: tuple[float, ...], motor_health: tuple[float, ...],
+                         wind_ned: np.ndarray, force_ned: np.ndarray, torque_frd: np.ndarray,
+                         payload_kg: float) -> None:
+        """Every input at once, by group: rotor commands 0..1 and health multipliers (PX4 quad X order),
+        wind and disturbance force in NED (m/s, N), disturbance torque in FRD (N·m), payload (kg)."""
+        v = self._in_view
+        v[_MOTORS], v[_HEALTH], v[_WIND] = motor_cmds, motor_health, wind_ned
+        v[_FORCE], v[_TORQUE], v[_PAYLOAD] = force_ned, torque_frd, payload_kg
+        self._check(self._set_real(self._component, self._in_vr, len(INPUT_NAMES), self._in_values), "setting inputs")
+
+    def state(self) -> PlantState:
+        """The outputs as a typed state (a copy: it stays valid after the next step)."""
+        return PlantState.from_outputs(self._out_view.copy(), self.on_ground)
 
     def set_input(self, name: str, value: float) -> None:
         vr = (ctypes.c_uint * 1)(VR[name])
@@ -163,10 +191,11 @@ class Plant:
         self._fmu.freeInstance()
         shutil.rmtree(self._unzip_dir, ignore_errors=True)
 
-    def __enter__(self) -> Plant:
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None) -> None:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
         self.close()
 
     def __del__(self) -> None:

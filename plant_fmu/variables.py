@@ -108,5 +108,14 @@ OUTPUTS: tuple[Variable, ...] = (
 VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS
 VR: dict[str, int] = {v.name: i for i, v in enumerate(VARIABLES)}
 PARAMETER_NAMES = tuple(v.name for v in PARAMETERS)
+
+
+def span(names: tuple[str, ...], first: str, count: int) -> slice:
+    """Where `count` consecutive variables starting at `first` sit in a vector ordered as `names`."""
+    start = names.index(first)
+    return slice(start, start + count)
+
+
+PARAMETER_DEFAULTS: dict[str, float] = {v.name: v.start for v in PARAMETERS if v.start is not None}
 INPUT_NAMES = tuple(v.name for v in INPUTS)
 OUTPUT_NAMES = tuple(v.name for v in OUTPUTS)

@@ -8,10 +8,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from firmware_interface.emulator.config import EmulatorConfig
-from firmware_interface.emulator.control import Setpoint, VehicleState, make_controller
+from firmware_interface.emulator.control import Controller, Setpoint, VehicleState
+from firmware_interface.emulator.control.registry import make_controller
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
+from hil.scenario.environment import Environment
 from hil.scenario.reference import Helix, Hover, Trajectory
+from hil.scenario.schema import Scenario
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 from plant_fmu import Plant
 
@@ -36,6 +39,19 @@ def hover(point: tuple[float, float, float], yaw: float = 0.0) -> Callable[[floa
     return as_setpoints(Hover(point, yaw))
 
 
+def scenario_inputs(scenario: Scenario, dt: float) -> Callable[[float, Plant, np.ndarray], None]:
+    """The scenario's disturbance force and torque and payload steps as `fly` inputs (mission time = t): the
+    same expressions the bench evaluates."""
+    environment = Environment(scenario, dt, np.random.default_rng(scenario.seed))
+
+    def inputs(t: float, plant: Plant, u: np.ndarray) -> None:
+        sample, i = environment.sample(t), plant.input_index
+        u[[i[n] for n in ("f_dist_n", "f_dist_e", "f_dist_d")]] = sample.force_ned
+        u[[i[n] for n in ("tau_dist_x", "tau_dist_y", "tau_dist_z")]] = sample.torque_frd
+        u[i["payload_mass"]] = sample.payload_kg
+    return inputs
+
+
 @dataclass
 class Trace:
     t: np.ndarray
@@ -50,13 +66,15 @@ class Trace:
 
 def fly(config: EmulatorConfig, plant_params: dict, reference: Callable[[float], Setpoint], seconds: float,
         dt: float = 0.004, inputs: Callable[[float, Plant, np.ndarray], None] | None = None,
-        start: tuple[float, float, float] = (1.0, 0.0, 0.0), sensors: SensorsConfig | None = None) -> Trace:
+        start: tuple[float, float, float] = (1.0, 0.0, 0.0), sensors: SensorsConfig | None = None,
+        controller: Controller | None = None) -> Trace:
     """Start in the air at `start` (NED), level, rotors in trim; fly `reference` for `seconds`.
 
     With `sensors`, the controller flies on the emulator's estimator fed by the bench's sensor
-    models (HIL_SENSOR/HIL_GPS contents, no MAVLink); otherwise on the true state.
+    models (HIL_SENSOR/HIL_GPS contents, no MAVLink); otherwise on the true state. `controller` replaces
+    the configured one (a controller not registered, e.g. the template).
     """
-    controller = make_controller(config)
+    controller = controller or make_controller(config)
     estimator = Estimator(config.estimator) if sensors is not None else None
     suite = SensorSuite(sensors, Home(), 1.0 / dt, np.random.default_rng(7)) if sensors is not None else None
     mixer = Mixer(config.vehicle)
@@ -80,7 +98,7 @@ def fly(config: EmulatorConfig, plant_params: dict, reference: Callable[[float],
                                  out[[o["rate_x"], o["rate_y"], o["rate_z"]]].copy())
             truth_state = state
             if estimator is not None and suite is not None:
-                t_us += int(round(dt * 1e6))
+                t_us += round(dt * 1e6)
                 true = TrueState(t_us, state.pos_ned, state.vel_ned, out[[o["q_w"], o["q_x"], o["q_y"], o["q_z"]]],
                                  state.rates_frd, out[[o["specific_force_x"], o["specific_force_y"],
                                                        o["specific_force_z"]]])

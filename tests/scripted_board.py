@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 from dataclasses import dataclass, field
+from typing import Any
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.link import Link, LinkLost, open_pty_pair
@@ -19,6 +20,7 @@ class ScriptedBoard:
     send_heartbeat: bool = True
     answer_sensors: bool = True
     received: list[str] = field(default_factory=list)
+    messages: dict[str, Any] = field(default_factory=dict)  # the last message of each kind, decoded
     armed: bool = False
 
     def start(self) -> Link:
@@ -47,6 +49,7 @@ class ScriptedBoard:
                 for msg in self.link.receive(0.01):
                     kind = msg.get_type()
                     self.received.append(kind)
+                    self.messages[kind] = msg
                     if kind == "HIL_SENSOR" and self.answer_sensors:
                         sensors += 1
                         if sensors > self.free_run:

@@ -33,7 +33,8 @@ def test_handshake_reports_what_the_board_is(board):
 def test_no_heartbeat_gives_the_actionable_message():
     scripted = ScriptedBoard(send_heartbeat=False)
     session = BoardSession(scripted.start(), BoardKind.HITL)
-    with pytest.raises(BoardError, match=r"no heartbeat on .* within 0.3 s \(no bytes arrived at all\) — is SYS_HITL=1 set"):
+    with pytest.raises(BoardError, match=r"no heartbeat on .* within 0.3 s \(no bytes arrived at all\) "
+                                         r"— is SYS_HITL=1 set"):
         session.wait_heartbeat(0.3)
     scripted.stop()
 
@@ -65,16 +66,25 @@ def test_arm_is_acknowledged_and_a_refusal_is_an_error(board):
 def test_setpoints_and_offboard_reach_the_board(board):
     session = BoardSession(board.start(), BoardKind.EMULATOR)
     session.wait_heartbeat(2.0)
-    session.send_setpoint(100, (1.0, 2.0, -3.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.5)
+    session.send_setpoint(100, (1.0, 2.0, -3.0), (0.1, -0.2, 0.3), (0.0, 0.5, 0.0), 0.5)
     session.set_offboard(timeout_s=2.0)
-    assert "SET_POSITION_TARGET_LOCAL_NED" in board.received
+    target = board.messages["SET_POSITION_TARGET_LOCAL_NED"]
+    # MAVLink common.xml: MAV_FRAME_LOCAL_NED = 1; POSITION_TARGET_TYPEMASK bit 11 (2048) ignores the yaw
+    # rate, every other field (position, velocity, acceleration, yaw) is used
+    assert (target.time_boot_ms, target.coordinate_frame, target.type_mask) == (100, 1, 2048)
+    assert (target.x, target.y, target.z, target.yaw) == pytest.approx((1.0, 2.0, -3.0, 0.5))
+    assert (target.vx, target.vy, target.vz, target.afx, target.afy, target.afz) == pytest.approx(
+        (0.1, -0.2, 0.3, 0.0, 0.5, 0.0))
+    mode = board.messages["COMMAND_LONG"]
+    # MAV_CMD_DO_SET_MODE (176): param1 MAV_MODE_FLAG_CUSTOM_MODE_ENABLED (1), param2 PX4's main mode OFFBOARD (6)
+    assert (mode.command, mode.param1, mode.param2) == (176, 1.0, 6.0)
 
 
 def test_ground_truth_never_goes_to_a_real_board():
     scripted = ScriptedBoard()
     session = BoardSession(scripted.start(), BoardKind.HITL)
     session.wait_heartbeat(2.0)
-    for k in range(20):
+    for _ in range(20):
         session.exchange(READINGS, truth=TRUTH)
     session.poll(0.2)
     assert "HIL_SENSOR" in scripted.received

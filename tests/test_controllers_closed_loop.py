@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 
 from firmware_interface.emulator.config import build_config
+from firmware_interface.emulator.control.registry import CONTROLLERS
 from hil.sensors import SensorsConfig
 from tests.closed_loop import PAPER_PLANT, fly, helix, hover
 
-CONTROLLERS = ("smarc", "smpid", "backstepping")
+PAPER_CONTROLLERS = ("smarc", "smpid", "backstepping")  # the paper's comparison; CONTROLLERS: all registered
 
 
 @pytest.mark.parametrize("name", CONTROLLERS)
@@ -31,11 +32,14 @@ def test_each_controller_tracks_the_paper_helix_at_1kg(name):
 
 
 def paper_disturbances(t, plant, u):
-    """The paper's d_s and d_M (z up in the paper, hence the sign of the down force)."""
+    """The paper's d_s and d_M: its frame is NED reflected in z, so a force maps as (x, y, −z) and a torque (an
+    axial vector) as (−x, −y, +z) (tests/test_paper_frames.py)."""
     i = plant.input_index
-    u[i["f_dist_n"]], u[i["f_dist_e"]], u[i["f_dist_d"]] = math.sin(math.pi * t), math.cos(math.pi * t), -math.cos(math.pi * t)
-    u[i["tau_dist_x"]] = math.sin(0.5 * math.pi * t) + 0.5
-    u[i["tau_dist_y"]] = math.cos(0.5 * math.pi * t) + 0.5
+    u[i["f_dist_n"]] = math.sin(math.pi * t)
+    u[i["f_dist_e"]] = math.cos(math.pi * t)
+    u[i["f_dist_d"]] = -math.cos(math.pi * t)
+    u[i["tau_dist_x"]] = -(math.sin(0.5 * math.pi * t) + 0.5)
+    u[i["tau_dist_y"]] = -(math.cos(0.5 * math.pi * t) + 0.5)
     u[i["tau_dist_z"]] = math.sin(0.5 * math.pi * t) + 0.6
 
 
@@ -57,6 +61,7 @@ def errors_after_2s(trace):
     return trace.pos[after] - trace.ref[after]
 
 
+@pytest.mark.slow
 def test_smarc_mass_estimate_follows_the_paper_mass_schedule():
     config, trace = fly_paper_study("smarc", paper_inputs)
     m_hat = np.array([i["m_hat"] for i in trace.internals])
@@ -67,6 +72,7 @@ def test_smarc_mass_estimate_follows_the_paper_mass_schedule():
     assert gains.mass_min <= m_hat.min() and m_hat.max() <= gains.mass_max
 
 
+@pytest.mark.slow
 def test_smarc_sliding_variable_goes_to_zero_without_disturbances():
     config = build_config({"airframe": "paper_airframe", "controller": "smarc"})
     trace = fly(config, PAPER_PLANT, helix(10.0), 20.0, dt=0.001, start=(1.3, -0.2, -9.7))  # off the reference
@@ -75,11 +81,12 @@ def test_smarc_sliding_variable_goes_to_zero_without_disturbances():
     assert np.linalg.norm(s1[-1000:], axis=1).max() < 5e-3
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", CONTROLLERS)
 def test_hover_with_px4_sitl_noise_and_the_estimator_in_the_loop(name):
     """px4_sitl noise on every sensor. The GPS slow (Gauss-Markov) error is set to zero here: it is
     common-mode, no board can observe it, and the vehicle follows it whatever its flight code
-    (with it the hold is 0.25–0.8 m horizontal over seeds; README)."""
+    (with it the hold is 0.25–0.8 m horizontal over seeds; docs/emulator.md)."""
     sensors = SensorsConfig(gps={"profile": "px4_sitl", "pos_markov_sigma_xy": 0.0, "pos_markov_sigma_z": 0.0})
     trace = fly(build_config({"controller": name}), {}, hover((0.0, 0.0, -5.0)), 40.0, start=(0.0, 0.0, 0.0),
                 sensors=sensors)
@@ -90,6 +97,7 @@ def test_hover_with_px4_sitl_noise_and_the_estimator_in_the_loop(name):
     assert attitude_error.max() < 2.0
 
 
+@pytest.mark.slow
 def test_smpid_at_1kg_keeps_x_and_y_within_the_papers_figure():
     """§5.1, Fig. 13: x and y errors within ±0.03 m. The amplitude also follows by hand from the design:
     d_s/m is a unit sinusoid at π rad/s on Ṡ = d − c·S − ε·S/φ inside the boundary layer, and
@@ -103,9 +111,10 @@ def test_smpid_at_1kg_keeps_x_and_y_within_the_papers_figure():
     assert np.abs(error[:, :2]).max(axis=0) == pytest.approx([amplitude, amplitude], rel=0.1)
 
 
+@pytest.mark.slow
 def test_only_the_mass_estimate_keeps_altitude_through_the_papers_mass_steps():
     """§4–5: max |e_z| after 2 s orders SMARC < sliding mode PID < backstepping under 1 -> 3 -> 5 kg."""
     max_ez = {name: np.abs(errors_after_2s(fly_paper_study(name, paper_inputs)[1])[:, 2]).max()
-              for name in CONTROLLERS}
+              for name in PAPER_CONTROLLERS}
     assert max_ez["smarc"] < max_ez["smpid"] < max_ez["backstepping"]
     assert max_ez["smarc"] < 0.5  # the adaptive law keeps the sag small; without it a 5 kg vehicle sinks metres

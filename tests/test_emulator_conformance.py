@@ -17,6 +17,8 @@ from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 
+pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
+
 G = 9.80665
 
 
@@ -50,7 +52,7 @@ class RestingVehicle:
 
 
 def test_heartbeat_arming_lockstep_and_failsafe(emulator):
-    session, info, proc = emulator
+    session, info, _proc = emulator
     assert (info.autopilot, info.vehicle_type, info.hil_enabled, info.armed) == (12, 2, True, False)
 
     vehicle = RestingVehicle()

@@ -10,7 +10,6 @@ import pytest
 from firmware_interface.emulator.config import EstimatorSettings, NominalVehicle
 from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
 from firmware_interface.emulator.estimator import Estimator
-from firmware_interface.emulator.geometry import euler_to_quat, quat_to_dcm
 from firmware_interface.emulator.mixer import Mixer
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 
@@ -55,11 +54,22 @@ def test_differentiator_recovers_first_and_second_derivatives_of_a_sine():
     assert d2[0] == pytest.approx(-w * w * math.sin(w * t - lag), abs=0.05 * w * w)  # 5 % of the amplitude
 
 
+def rx(a: float) -> np.ndarray:
+    return np.array(((1, 0, 0), (0, math.cos(a), -math.sin(a)), (0, math.sin(a), math.cos(a))))
+
+
+def ry(a: float) -> np.ndarray:
+    return np.array(((math.cos(a), 0, math.sin(a)), (0, 1, 0), (-math.sin(a), 0, math.cos(a))))
+
+
+def rz(a: float) -> np.ndarray:
+    return np.array(((math.cos(a), -math.sin(a), 0), (math.sin(a), math.cos(a), 0), (0, 0, 1)))
+
+
 def test_estimator_aligns_attitude_and_heading_from_accel_and_mag_at_rest():
     roll, pitch, yaw = 0.05, -0.08, 1.2
-    q = euler_to_quat(roll, pitch, yaw)
     field_ned = np.array((21.5e-6, 1.3e-6, 43.3e-6))
-    rot = quat_to_dcm(q)
+    rot = rz(yaw) @ ry(pitch) @ rx(roll)  # body FRD -> NED for ZYX angles, from elementary rotations by hand
     est = Estimator(EstimatorSettings())
     est.on_gps(GpsFix(0, 47.397742, 8.545594, 488.0, (0, 0, 0), 0.5, 0.5), 0)
     est.field_ned = field_ned  # the test's field, so the check does not depend on the WMM

@@ -11,7 +11,10 @@ import time
 from collections import Counter
 from pathlib import Path
 
+import pytest
 from pymavlink import mavutil
+
+pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -38,9 +41,9 @@ def test_a_gcs_receives_the_emulators_traffic_but_no_hil_frames(tmp_path):
     listener.start()
     scenario = tmp_path / "s.yaml"
     scenario.write_text("name: s\nduration_s: 3\nseed: 4\nreference: {type: hover, altitude_m: 2}\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(tmp_path / "runs"),
-                          "--no-telemetry", "--gcs", "udpout:127.0.0.1:14561"], capture_output=True, text=True,
-                         timeout=300, cwd=ROOT)
+    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+                          "--runs", str(tmp_path / "runs"), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14561"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT)
     time.sleep(0.5)
     listener.stop.set()
     listener.join(5)
@@ -57,13 +60,15 @@ def test_a_gcs_receives_the_emulators_traffic_but_no_hil_frames(tmp_path):
 
 
 def test_no_gcs_turns_the_relay_off_and_a_bad_endpoint_is_bad_input(tmp_path):
-    bad = subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--gcs", "udpout:nowhere",
-                          "--runs", str(tmp_path)], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    bad = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+                          "--gcs", "udpout:nowhere", "--runs", str(tmp_path)],
+                         capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "--gcs udpout:nowhere" in bad.stderr
     scenario = tmp_path / "s.yaml"
     scenario.write_text("name: s\nduration_s: 1\nseed: 4\nreference: {type: hover, altitude_m: 2}\nend: disarm\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(tmp_path / "runs"),
-                          "--no-telemetry", "--no-gcs"], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+                          "--runs", str(tmp_path / "runs"), "--no-telemetry", "--no-gcs"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert run.returncode == 0, run.stdout + run.stderr
     metrics = json.loads(next((tmp_path / "runs").iterdir()).joinpath("metrics.json").read_text())
     board_line = next(line for line in run.stdout.splitlines() if line.startswith("board:"))
@@ -108,12 +113,13 @@ def test_a_gcs_reads_the_emulators_parameters_and_a_gain_it_sets_takes_effect(tm
     scenario = tmp_path / "payload.yaml"
     scenario.write_text("name: payload\nduration_s: 12\nseed: 3\nreference: {type: hover, altitude_m: 3}\n"
                         "payload: [{t_s: 5, mass_kg: 0.5}]\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(tmp_path / "runs"),
-                          "--no-telemetry", "--gcs", "udpout:127.0.0.1:14562"], capture_output=True, text=True,
-                         timeout=300, cwd=ROOT)
+    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+                          "--runs", str(tmp_path / "runs"), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14562"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT)
     gcs.join(10)
     assert run.returncode == 0, run.stdout + run.stderr
-    assert {"SMARC_C1", "SMARC_GAMMA2", "SMARC_MASS_MAX", "SYS_HITL", "EKF2_GPS_DELAY", "MPC_LAND_SPEED"} <= set(gcs.params)
+    assert {"SMARC_C1", "SMARC_GAMMA2", "SMARC_MASS_MAX", "SYS_HITL", "EKF2_GPS_DELAY",
+            "MPC_LAND_SPEED"} <= set(gcs.params)
     assert gcs.params["SMARC_MASS_MAX"] == 2.5 and gcs.params["EKF2_GPS_DELAY"] == 120.0
     assert gcs.echo is not None and abs(gcs.echo - 1.05) < 1e-6
     assert gcs.extra["mission"].count == 0 and gcs.extra["version"] is not None
@@ -121,11 +127,11 @@ def test_a_gcs_reads_the_emulators_parameters_and_a_gain_it_sets_takes_effect(tm
 
     set_at, m_hat = None, []
     with open(next((tmp_path / "runs").iterdir()) / "recording.mcap", "rb") as f:
-        for _, channel, message in make_reader(f).iter_messages(topics=["hil/events", "hil/board"]):
+        for _, channel, message in make_reader(f).iter_messages(topics=["hil/events", "hil/board/estimates"]):
             sample = json.loads(message.data)
             if channel.topic == "hil/events" and "SMARC_MASS_MAX set to 1.05" in sample["text"]:
                 set_at = sample["t_us"]
-            elif sample.get("message") == "DEBUG_FLOAT_ARRAY" and set_at is not None and sample["t_us"] > set_at:
+            elif channel.topic == "hil/board/estimates" and set_at is not None and sample["t_us"] > set_at:
                 m_hat.append(sample["values"]["m_hat"])
     assert set_at is not None and m_hat
     assert max(m_hat) <= 1.05 + 1e-6 and m_hat[-1] >= 1.04

@@ -43,7 +43,7 @@ def test_hil_sensor_frame_equals_pymavlink_and_has_the_documented_size():
     for seq in (0, 200):
         frame = ours("HIL_SENSOR", codec.hil_sensor_fields(REST), seq)
         assert frame == pymavlink_frame("HIL_SENSOR", codec.hil_sensor_fields(REST), seq)
-    assert len(ours("HIL_SENSOR", codec.hil_sensor_fields(REST))) == 74  # mask 0x1BFF, id 0 (§1.9)
+    assert len(ours("HIL_SENSOR", codec.hil_sensor_fields(REST))) == 74  # mask 0x1BFF, id 0 (docs/px4_protocol.md §2.3)
     imu = codec.hil_sensor_fields(codec.SensorReadings(1, (0.1, 0, -9.8), (0.01, 0, 0), sensor_id=0))
     imu["temperature"] = 20.0
     assert len(ours("HIL_SENSOR", imu)) == 73  # mask 0x3F, id 0
@@ -71,7 +71,7 @@ def test_hil_gps_fields_by_hand():
     assert f["cog"] == 9000  # flying east: 90.00 deg in cdeg
     assert (f["fix_type"], f["satellites_visible"]) == (3, 10)
     assert ours("HIL_GPS", f) == pymavlink_frame("HIL_GPS", f)
-    assert len(ours("HIL_GPS", f)) == 48  # id 0, yaw 0 (§1.9)
+    assert len(ours("HIL_GPS", f)) == 48  # id 0, yaw 0 (docs/px4_protocol.md §2.3)
     west = codec.hil_gps_fields(codec.GpsFix(0, 0, 0, 0, (0.0, -1.0, 0.0), 1, 1))
     assert west["cog"] == 27000
 

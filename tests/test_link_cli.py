@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -15,6 +16,9 @@ import pytest
 
 from firmware_interface.link import Link, LinkError, open_pty_pair, parse_connection
 from firmware_interface.link.ports import pixhawk_maker
+from tests.summary_text import summary_field
+
+pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -28,17 +32,17 @@ def test_baud_applies_where_the_string_names_none():
 def test_a_malformed_string_is_bad_input(text, tmp_path):
     with pytest.raises(LinkError):
         parse_connection(text)
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--port", text, "--runs",
-                          str(tmp_path)], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml", "--port", text,
+                          "--runs", str(tmp_path)], capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert run.returncode == 2 and run.stderr.count("\n") == 1 and "--port" in run.stderr
 
 
 def run_on_serial(port: str, tmp_path: Path) -> str:
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--port", port,
+    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml", "--port", port,
                           "--connect-timeout", "1", "--no-telemetry", "--no-gcs", "--runs", str(tmp_path)],
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert run.returncode == 3
-    return next(line for line in run.stdout.splitlines() if line.startswith("ended:"))
+    return summary_field(run.stdout, "ended")
 
 
 def test_a_missing_device_says_it_is_missing(tmp_path):
@@ -53,10 +57,8 @@ def test_a_silent_port_and_a_port_with_garbage_say_what_arrived(tmp_path):
 
     def babble() -> None:  # what a board at another baud rate looks like: bytes, never a frame
         while not stop.is_set():
-            try:
+            with contextlib.suppress(OSError):
                 os.write(pair.master.fd, bytes(range(0, 250, 7)))
-            except OSError:
-                pass
             time.sleep(0.01)
 
     thread = threading.Thread(target=babble, daemon=True)

@@ -50,7 +50,7 @@ def test_noisy_stream_in_random_chunks_gives_the_same_frames():
 
 
 def test_fake_ff_length_does_not_swallow_the_frames_behind_it():
-    """Protocol reference §6.2: pymavlink returns nothing at all for `FD FF 00` + 6 frames."""
+    """docs/px4_protocol.md §2.2: pymavlink returns nothing at all for `FD FF 00` + 6 frames."""
     rng = random.Random(1)
     mav = common.MAVLink(None)
     good = [clean_frame(rng, mav) for _ in range(6)]
@@ -114,3 +114,22 @@ def test_frames_embedded_in_arbitrary_bytes_are_recovered(before, after, seed):
         assert _crc_ok(frame)
     it = iter(out)
     assert all(any(f == o for o in it) for f in frames), "every embedded frame is recovered, in order"
+
+
+def test_a_slow_serial_line_byte_by_byte_loses_no_intact_frame():
+    """At 38,400 baud (10 bits a byte, 8N1) a long frame takes ~60 ms to arrive: the partial-frame wait
+    follows the line's rate, so every frame delivered byte by byte at that rate is accepted."""
+    from firmware_interface.link.scanner import partial_timeout_for
+
+    baud = 38_400
+    rng = random.Random(5)
+    mav = common.MAVLink(None)
+    frames = [clean_frame(rng, mav) for _ in range(300)]
+    assert max(len(f) for f in frames) * 10 / baud > 0.02  # longer than the old fixed 20 ms wait
+    scanner = FrameScanner(partial_timeout_for(baud))
+    now, out = 0.0, []
+    for byte in b"".join(frames):
+        now += 10 / baud
+        out += scanner.feed(bytes([byte]), now)
+    assert out == frames and scanner.counts["timeout"] == 0
+    assert partial_timeout_for(None) == 0.02 and partial_timeout_for(921_600) == 0.02

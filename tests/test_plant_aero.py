@@ -132,7 +132,8 @@ def hold_position(plant: Plant, wind_e: float, seconds: float) -> np.ndarray:
         up = 2.0 * (50.0 - altitude) - 2.5 * climb
         total = (G + up) / (math.cos(out[o["roll"]]) * math.cos(out[o["pitch"]]))
         for i in range(4):
-            thrust = total / 4 - y_sign[i] * tau[0] / (4 * a) + x_sign[i] * tau[1] / (4 * a) + spin[i] * tau[2] / (4 * c)
+            thrust = (total / 4 - y_sign[i] * tau[0] / (4 * a) + x_sign[i] * tau[1] / (4 * a)
+                      + spin[i] * tau[2] / (4 * c))
             u[plant.input_index[f"motor_cmd_{i + 1}"]] = rotor_command_for_thrust(max(thrust, 0.0), 5.0, 0.5)
         plant.set_inputs(u)
         out = plant.step(0.004)

@@ -121,6 +121,7 @@ def _rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+@pytest.mark.slow
 def test_thousand_instantiate_step_free_cycles_do_not_leak(fmu_path, tmp_path):
     description = read_model_description(str(fmu_path))
     unzipped = extract(str(fmu_path), str(tmp_path / "fmu"))

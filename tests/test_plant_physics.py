@@ -31,7 +31,7 @@ def inputs(plant: Plant, motors: list[float], **named: float) -> np.ndarray:
 def run(plant: Plant, u: np.ndarray, seconds: float, dt: float = 0.004) -> np.ndarray:
     plant.set_inputs(u)
     out = plant.outputs()
-    for _ in range(int(round(seconds / dt))):
+    for _ in range(round(seconds / dt)):
         out = plant.step(dt)
     return out.copy()
 

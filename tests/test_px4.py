@@ -25,6 +25,7 @@ from pyulog import ULog
 from hil.telemetry import ZenohOptions, subscribe
 from tests.mavsdk_client import read_telemetry
 from tests.px4_builds import px4_build, px4_root
+from tests.summary_text import summary_field
 
 PX4_ROOT = px4_root()
 pytestmark = [pytest.mark.px4, pytest.mark.slow]
@@ -83,7 +84,7 @@ def flight_log(run_dir: Path) -> ULog:
 
 
 def first_after(t_us: Any, values: Any, wanted: int, after_us: int) -> int:
-    hits = [int(t) for t, v in zip(t_us, values) if v == wanted and t > after_us]
+    hits = [int(t) for t, v in zip(t_us, values, strict=True) if v == wanted and t > after_us]
     assert hits, f"value {wanted} never seen after t = {after_us} us"
     return hits[0]
 
@@ -108,10 +109,10 @@ def recorded(run_dir: Path, topic: str) -> list[dict[str, Any]]:
 
 def assert_every_ack_reached_the_bench(ulog: ULog, run_dir: Path) -> None:
     acks = ulog.get_dataset("vehicle_command_ack").data
-    sent = Counter((int(c), int(r)) for c, r, comp in zip(acks["command"], acks["result"], acks["target_component"])
+    sent = Counter((int(c), int(r))
+                   for c, r, comp in zip(acks["command"], acks["result"], acks["target_component"], strict=True)
                    if comp == BENCH_COMPONENT)
-    seen = Counter((m["command"], m["result"]) for m in recorded(run_dir, "hil/board")
-                   if m["message"] == "COMMAND_ACK")
+    seen = Counter((m["command"], m["result"]) for m in recorded(run_dir, "hil/board/command_ack"))
     assert sent, "PX4 logged no acknowledgement addressed to the bench"
     assert not sent - seen, f"acknowledged by PX4 but missing from the recording: {sent - seen}"
 
@@ -128,15 +129,17 @@ def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario)
     assert "Simulator connected" in console
     assert "poll timeout" not in console.split("Simulator connected", 1)[1]
     assert not processes_using(run_dir)
-    texts = [m["text"] for m in recorded(run_dir, "hil/board") if m["message"] == "STATUSTEXT"]
+    assert (run_dir / "report.html").stat().st_size > 100_000  # the run's page, from PX4's flight
+    texts = [m["text"] for m in recorded(run_dir, "hil/board/statustext")]
     assert "Landing detected" in texts  # STATUSTEXT reaches the bench: PX4 takes it for a GCS
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert set(metrics["board_estimate_error_m"]) == {"x", "y", "z"}
 
 
 def test_hitl_rehearsal_flies_the_serial_path_in_real_time_and_a_gcs_sees_px4_through_the_relay(hitl, tmp_path):
-    bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4-hitl", str(hitl),
-                              "--runs", str(tmp_path), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14593"],
+    bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+                              "--px4-hitl", str(hitl), "--runs", str(tmp_path), "--no-telemetry",
+                              "--gcs", "udpout:127.0.0.1:14593"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         seen = read_telemetry(14593, 90, want_status_text=True)  # MAVSDK, as QGroundControl would connect
@@ -163,7 +166,7 @@ def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
     scenario.write_text("name: nofix\nduration_s: 5\nsensors: {gps: {profile: px4_sitl, fix_type: 0}}\n")
     result = hil_run(str(scenario), "--px4", str(sitl), runs=tmp_path / "runs")
     assert result.returncode == 3, result.stdout + result.stderr
-    ended = next(line for line in result.stdout.splitlines() if line.startswith("ended:"))
+    ended = summary_field(result.stdout, "ended")
     assert "did not arm" in ended and "Arming denied" in ended
     assert not processes_using(tmp_path / "runs")
 
@@ -175,11 +178,11 @@ def free_port(kind: int = socket.SOCK_STREAM) -> int:
 
 
 def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):
-    runs = [subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(sitl),
-                              "--runs", str(tmp_path / str(i)), "--no-telemetry"], stdout=subprocess.PIPE,
-                             stderr=subprocess.PIPE, text=True, cwd=ROOT) for i in range(2)]
+    runs = [subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+                              "--px4", str(sitl), "--runs", str(tmp_path / str(i)), "--no-telemetry"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT) for i in range(2)]
     outputs = [run.communicate(timeout=400) for run in runs]
-    for run, (out, err) in zip(runs, outputs):
+    for run, (out, err) in zip(runs, outputs, strict=True):
         assert run.returncode == 0, out + err
     instances = {line.split("instance ")[1].split()[0] for out, _ in outputs for line in out.splitlines()
                  if line.startswith("board:")}
@@ -209,8 +212,8 @@ class PhaseWatch:
 def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, second_ctrl_c):
     watch = PhaseWatch(phase)
     try:
-        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(sitl),
-                                  "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
+        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+                                  "--px4", str(sitl), "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert watch.reached.wait(120), f"the run never reached {phase}"
     finally:
@@ -235,8 +238,8 @@ def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, 
 def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
     watch = PhaseWatch("mission")
     try:
-        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "scenarios/hover.yaml", "--px4", str(sitl),
-                                  "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
+        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+                                  "--px4", str(sitl), "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert watch.reached.wait(120), "the run never reached the mission"
     finally:
@@ -248,7 +251,7 @@ def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
     os.kill(daemon[0], signal.SIGKILL)
     out, err = bench.communicate(timeout=30)
     assert bench.returncode == 3, out + err
-    ended = next(line for line in out.splitlines() if line.startswith("ended:"))
+    ended = summary_field(out, "ended")
     assert "PX4 was killed by signal 9" in ended
     assert not processes_using(run_dir)
     with open(run_dir / "recording.mcap", "rb") as f:

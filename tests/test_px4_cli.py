@@ -9,11 +9,18 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
+from tests.summary_text import summary_field
+
+pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def hil_run(*args: str, runs: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hil.cli", "run", *args, "--runs", str(runs), "--no-telemetry"],
+    return subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", *args,
+                           "--runs", str(runs), "--no-telemetry"],
                           capture_output=True, text=True, timeout=120, cwd=ROOT)
 
 
@@ -29,7 +36,7 @@ def test_a_px4_sitl_that_is_not_running_gets_a_sitl_error(tmp_path):
                      f"udpout:127.0.0.1:{free_port(socket.SOCK_DGRAM)}", "--connect-timeout", "2", runs=tmp_path)
     assert result.returncode == 3
     assert time.monotonic() - started < 15
-    ended = [line for line in result.stdout.splitlines() if line.startswith("ended:")]
+    ended = [summary_field(result.stdout, "ended")]
     assert len(ended) == 1 and "PX4 SITL" in ended[0] and "SYS_HITL" not in ended[0]
 
 

@@ -36,7 +36,8 @@ def test_every_shipped_scenario_passes_check():
     [
         ("name: x\nduration_s: ten\n", 2, "duration_s", "found 'ten', expected: input should be a valid number"),
         ("name: x\nvehicle:\n  preset: inspection_quad\n  masss: 2\n", 4, "vehicle.masss", "unknown field"),
-        ("name: x\nvehicle:\n  mass: -1.5\n", 3, "vehicle.mass", "found -1.5, expected: input should be greater than 0"),
+        ("name: x\nvehicle:\n  mass: -1.5\n", 3, "vehicle.mass",
+         "found -1.5, expected: input should be greater than 0"),
         ("name: x\ndisturbance:\n  force_ned: ['sin(t)', 'open(1)', 0]\n", 3, "disturbance.force_ned",
          "only calls to sin"),
         ("name: x\nreference:\n  type: spiral\n", 3, "reference", "'spiral'"),
@@ -44,6 +45,7 @@ def test_every_shipped_scenario_passes_check():
         ("duration_s: 5\n", None, "name", "missing"),
     ],
 )
+@pytest.mark.slow
 def test_malformed_scenarios_exit_2_with_one_clear_line(tmp_path, text, line, field, says):
     path = tmp_path / "bad.yaml"
     path.write_text(text)
@@ -56,6 +58,7 @@ def test_malformed_scenarios_exit_2_with_one_clear_line(tmp_path, text, line, fi
     assert lines[0].startswith(where) and f"{field}: " in lines[0] and says in lines[0], lines[0]
 
 
+@pytest.mark.slow
 def test_missing_file_and_non_yaml_exit_2_without_traceback(tmp_path):
     missing = hil("run", str(tmp_path / "nope.yaml"))
     assert missing.returncode == 2 and missing.stderr.strip() == f"{tmp_path / 'nope.yaml'}: no such file"
@@ -84,6 +87,7 @@ def test_one_minus_cosine_gust_shape():
     assert one_minus_cosine(10.5, 10, 2) == pytest.approx(0.5)
 
 
+@pytest.mark.slow
 def test_dryden_intensity_and_scale_follow_mil_f_8785c():
     """At h = 10 m (32.8 ft), light turbulence: σ_w = 0.1·15 kt, σ_u = σ_w/(0.177 + 0.000823 h)^0.4."""
     h_ft = 10.0 / FT

@@ -3,15 +3,23 @@
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
 from pygeomag import GeoMag
 
 from firmware_interface.hil_codec import SensorReadings
-from hil.sensors import Home, SensorChoice, SensorFault, SensorsConfig, SensorSuite, TrueState
+from hil.sensors import (
+    Home,
+    SensorChoice,
+    SensorFault,
+    SensorsConfig,
+    SensorSuite,
+    TrueState,
+)
 from hil.sensors.baro import Barometer, isa_pressure_pa
-from hil.sensors.config import G, BaroConfig, GpsConfig, ImuConfig, MagConfig
+from hil.sensors.config import BaroConfig, G, GpsConfig, ImuConfig, MagConfig
 from hil.sensors.geodesy import geodetic_to_ned, ned_to_geodetic
 from hil.sensors.gps import Gps
 from hil.sensors.imu import Imu
@@ -33,6 +41,7 @@ def quat_from_euler(roll: float, pitch: float, yaw: float) -> np.ndarray:
                      cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy])
 
 
+@pytest.mark.slow
 def test_imu_white_noise_std_equals_density_times_sqrt_rate():
     rate = 250.0
     config = ImuConfig(accel_noise_density=0.00637, gyro_noise_density=0.000873)
@@ -44,6 +53,7 @@ def test_imu_white_noise_std_equals_density_times_sqrt_rate():
     assert samples[:, :3].mean(axis=0) == pytest.approx([0, 0, -G], abs=4 * 0.1 / math.sqrt(N))
 
 
+@pytest.mark.slow
 def test_mag_and_baro_and_gps_white_noise_levels():
     mag = Magnetometer(MagConfig(noise_density=0.0004e-4, rate_hz=100.0), Home(), np.random.default_rng(2))
     m = np.array([mag.sample(LEVEL) for _ in range(N)])
@@ -114,7 +124,7 @@ def test_mag_is_the_earth_field_rotated_into_the_body():
 
 
 def test_wmm_field_at_px4_default_home_matches_the_published_field():
-    """Reference: the Zurich field PX4's jMAVSim uses (protocol reference §3.1/§4):
+    """Reference: the Zurich field PX4's jMAVSim uses (docs/px4_protocol.md §3):
     (0.21506, 0.01021, 0.42974) G, i.e. 0.4806 G, inclination 63.4°, declination 2.7°."""
     b = earth_field_ned(MagConfig(epoch_year=2026.0), Home()) * 1e4  # gauss
     published = np.array([0.21506, 0.01021, 0.42974])
@@ -136,7 +146,7 @@ def test_the_wmm_package_reproduces_noaa_official_test_values():
 
 
 def test_baro_reads_isa_pressure_at_488_m():
-    # by hand: 101325 * (1 - 0.0065*488/288.15)^5.25588 = 95 598 Pa = 955.98 hPa (≈ 956, §3.1)
+    # by hand: 101325 * (1 - 0.0065*488/288.15)^5.25588 = 95 598 Pa = 955.98 hPa (≈ 956, docs/px4_protocol.md §3)
     assert isa_pressure_pa(488.0) / 100 == pytest.approx(955.98, abs=0.01)
     reading = Barometer(BaroConfig(), np.random.default_rng(0)).sample(0.0, 488.0)
     assert reading.pressure_pa / 100 == pytest.approx(955.98, abs=0.01)
@@ -165,7 +175,7 @@ def test_gps_delay_is_exactly_the_configured_number_of_bench_steps():
             deliveries.append((k, round(north / 0.5)))
     assert len(deliveries) > 30
     assert all(k - measured_step == 30 for k, measured_step in deliveries)
-    assert all(b[0] - a[0] == 25 for a, b in zip(deliveries, deliveries[1:]))  # 10 Hz at 250 Hz
+    assert all(b[0] - a[0] == 25 for a, b in pairwise(deliveries))  # 10 Hz at 250 Hz
 
 
 def run_suite(seed: int, steps: int = 2000, config: SensorsConfig | None = None) -> list:

@@ -18,6 +18,8 @@ import pytest
 
 from hil.telemetry import DEFAULT_RATES_HZ, ZenohOptions, fetch_meta, open_session
 
+pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -35,7 +37,7 @@ def scenario_file(tmp_path: Path, duration: float = 4.0, altitude: float = 3.0) 
 
 
 def bench(scenario: Path, runs: Path, endpoint: str, connect: bool = False) -> subprocess.Popen[str]:
-    return subprocess.Popen([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
+    return subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs),
                              "--zenoh-connect" if connect else "--zenoh-listen", endpoint],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
 
@@ -43,22 +45,22 @@ def bench(scenario: Path, runs: Path, endpoint: str, connect: bool = False) -> s
 def test_a_subscriber_in_another_process_gets_every_channel_at_its_rate(tmp_path):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     lines_path = tmp_path / "echo.jsonl"
-    sink = open(lines_path, "wb")  # a file, not a pipe: a full pipe would block the subscriber
-    echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
-                            stdout=sink, stderr=subprocess.DEVNULL, cwd=ROOT)
-    time.sleep(2.0)  # listening: the bench connects to it when it opens its session
-    run = bench(scenario_file(tmp_path, duration=20.0), tmp_path / "runs", endpoint, connect=True)
-    assert run.wait(300) == 0, run.stderr.read()
-    time.sleep(1.0)
-    echo.send_signal(signal.SIGINT)
-    assert echo.wait(10) == 0
-    sink.close()
+    with open(lines_path, "wb") as sink:  # a file, not a pipe: a full pipe would block the subscriber
+        echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
+                                stdout=sink, stderr=subprocess.DEVNULL, cwd=ROOT)
+        time.sleep(2.0)  # listening: the bench connects to it when it opens its session
+        run = bench(scenario_file(tmp_path, duration=20.0), tmp_path / "runs", endpoint, connect=True)
+        assert run.wait(300) == 0, run.stderr.read()
+        time.sleep(1.0)
+        echo.send_signal(signal.SIGINT)
+        assert echo.wait(10) == 0
     samples: dict[str, list[int]] = defaultdict(list)
     for line in lines_path.read_text().splitlines():
         record = json.loads(line)
         samples[record["key"].split("/", 2)[2]].append(record["sample"]["t_us"])
     assert set(samples) >= {"state", "reference", "sensors/imu", "sensors/gps", "sensors/baro", "sensors/mag",
-                            "actuators", "environment", "board", "timing", "events", "summary"}
+                            "actuators", "environment", "board/heartbeat", "board/attitude_target", "board/link",
+                            "timing", "events", "summary"}
     for channel, stamps in samples.items():
         assert stamps == sorted(stamps), f"{channel}: t_us not monotonic"
     # the subscriber connects a moment after the bench starts publishing: measure over what it saw
@@ -161,9 +163,48 @@ def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
             run.send_signal(signal.SIGINT)
             watcher.send_signal(signal.SIGINT)
             stopped = time.monotonic()
-            assert run.wait(10) == 130 and watcher.wait(10) == 130
+            # the watcher ends by its own Ctrl-C (130) or, if the bench's summary beat it, by the run's end (0)
+            assert run.wait(10) == 130 and watcher.wait(10) in (0, 130)
         else:
             assert run.wait(120) == 0
             stopped = time.monotonic()
             watcher.wait(10)
         assert time.monotonic() - stopped < 2.0, f"iteration {i}"
+
+
+@pytest.mark.slow
+def test_a_stopped_subscriber_does_not_hold_up_the_end_of_a_run(tmp_path):
+    """A subscriber frozen with SIGSTOP (a hung viewer): each of 10 benches exits within 2 s of writing its
+    summary (the summary put and the session close are bounded)."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    scenario = tmp_path / "s.yaml"
+    scenario.write_text("name: stall\nduration_s: 2\nreference: {type: hover, altitude_m: 2}\nend: disarm\n")
+    echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
+    time.sleep(2.0)
+    try:
+        for attempt in range(10):
+            runs = tmp_path / f"runs{attempt}"
+            run = bench(scenario, runs, endpoint, connect=True)
+            time.sleep(1.0)
+            echo.send_signal(signal.SIGSTOP)
+            assert run.wait(120) == 0, run.stderr.read()
+            exited = time.time()
+            (run_dir,) = runs.iterdir()
+            assert exited - (run_dir / "summary.txt").stat().st_mtime < 2.0, f"attempt {attempt}"
+            echo.send_signal(signal.SIGCONT)
+            time.sleep(0.5)
+    finally:
+        echo.send_signal(signal.SIGCONT)
+        echo.kill()
+        echo.wait(10)
+
+
+def test_watch_of_a_run_that_is_not_running_honours_wait(tmp_path):
+    started = time.monotonic()
+    watch = subprocess.run([sys.executable, "-m", "hil.cli", "watch", "20990101T000000.000000Z-nosuch", "--wait", "2",
+                            "--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"], capture_output=True, text=True,
+                           cwd=ROOT, timeout=60)
+    assert watch.returncode == 1
+    assert "is not running (unknown, or it has ended) within 2 s" in watch.stderr
+    assert time.monotonic() - started < 30  # it gave up after --wait, it did not hang (seen: 10 min)

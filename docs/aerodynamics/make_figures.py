@@ -12,9 +12,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-import yaml
-
 import numpy as np
+import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import signal
 import sys
 from pathlib import Path
 
 from firmware_interface.emulator.config import load_config
-from firmware_interface.emulator.control import CONTROLLERS
+from firmware_interface.emulator.control.registry import CONTROLLERS
 from firmware_interface.emulator.firmware import EmulatedBoard
 from firmware_interface.link import LinkError, open_link
 
@@ -45,6 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
     board = EmulatedBoard(link, config)
+    gc.freeze()  # start-up objects live to the end: a full collection over them stalls the loop ~10s of ms
     reason = board.run(lambda: stopping)
     link.close()
     print(f"hil emulate: {reason}", file=sys.stderr)

@@ -7,18 +7,18 @@ airframes: `inspection_quad` (the default 1 kg quad) and `paper_airframe` (the p
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, create_model
 
-ControllerName = Literal["smarc", "smpid", "backstepping"]
+from firmware_interface.emulator.control.registry import PLUGINS, ControllerName
+from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)  # a NaN gain flies nowhere
 
 
 class NominalVehicle(_Model):
@@ -31,67 +31,14 @@ class NominalVehicle(_Model):
     thrust_curve_k: float = Field(0.5, ge=0, le=1)
     yaw_moment_coeff: float = Field(0.016, gt=0)
     reversible: bool = Field(False, description="rotors take -1..1 (ideal actuators of the paper's simulation)")
-    g: float = 9.80665
+    g: float = STANDARD_GRAVITY_M_S2
 
 
-class SmarcGains(_Model):
-    """Defaults: the paper's §4 gains (c1 = 6, λ1 = 2, γ1 = 0.8, γ2 = 0.3, c2 = 8, ε = 0.3, λ2 = 60, φ = 0.3)."""
-
-    c1: float = 6.0
-    lambda1: float = 2.0
-    gamma1: float = 0.8
-    gamma2: float = 0.3
-    c2: float = 8.0
-    epsilon: float = 0.3
-    lambda2: float = 60.0
-    boundary_layer: float = 0.3
-    mass_min: float = Field(0.2, gt=0, description="projection bounds of m̂ (eq. 18)")
-    mass_max: float = Field(8.0, gt=0)
-    mass_initial: float | None = Field(None, description="m̂(0); default the nominal mass")
-    d_max: float = Field(20.0, gt=0, description="bound on each component of d̂_s, N")
-    adaptation_filter_s: float = Field(0.0, ge=0, description="low-pass of S1 driving the adaptive laws (0 = the paper's law)")
-    adaptation_deadzone: float = Field(0.0, ge=0, description="no adaptation while |S1| (filtered) is below this, m/s")
-    differentiator_bandwidth: float = Field(100.0, gt=0, description="rad/s")
-    max_tilt: float = Field(math.radians(35), gt=0, lt=math.pi / 2)
-
-
-class SmpidGains(_Model):
-    kp_z: float = 12.0
-    kd_z: float = 7.0
-    ki_z: float = 6.0
-    integral_limit: float = 2.0
-    lambda_xy: float = 2.0
-    c_xy: float = 6.0
-    # the switching gain must exceed the matched disturbance per unit mass for S to reach zero:
-    # 1 m/s² bounds the paper's d_s at its 1 kg nominal and a 4 m/s gust on the inspection quad's
-    # 0.25 N·s/m drag; 20 % reaching margin on top
-    epsilon_xy: float = 1.2
-    boundary_layer: float = 0.3
-    c2: float = 8.0
-    lambda2: float = 60.0
-    epsilon_att: float = 0.3
-    # yaw PID per unit of nominal Iz: ω_n = 20 rad/s, ζ = 0.9, integral at ω_n², comparable to the
-    # other attitude loops (the paper gives no gains); the inspection preset softens it for its rotors
-    kp_yaw: float = 400.0
-    kd_yaw: float = 36.0
-    ki_yaw: float = 400.0
-    differentiator_bandwidth: float = 100.0
-    max_tilt: float = math.radians(35)
-
-
-class BacksteppingGains(_Model):
-    k1: float = 2.0
-    k2: float = 6.0
-    k3: float = 30.0
-    k4: float = 30.0
-    differentiator_bandwidth: float = 100.0
-    max_tilt: float = math.radians(35)
-
-
-class Gains(_Model):
-    smarc: SmarcGains = SmarcGains()
-    smpid: SmpidGains = SmpidGains()
-    backstepping: BacksteppingGains = BacksteppingGains()
+if TYPE_CHECKING:  # the fields are data (the registry); to a type checker any name is a gains model
+    class Gains(_Model):
+        def __getattr__(self, name: str) -> Any: ...
+else:  # one field per registered controller, its gains model
+    Gains = create_model("Gains", __base__=_Model, **{name: (p.gains, p.gains()) for name, p in PLUGINS.items()})
 
 
 class EstimatorSettings(_Model):
@@ -100,7 +47,8 @@ class EstimatorSettings(_Model):
     heading_gain: float = Field(0.3, ge=0)
     gps_pos_gain_xy: float = Field(0.15, ge=0, le=1, description="share of a GPS position innovation taken per fix")
     gps_pos_gain_z: float = Field(0.02, ge=0, le=1)
-    gps_vel_from_pos_gain: float = Field(0.08, ge=0, le=1, description="velocity correction per metre of position innovation")
+    gps_vel_from_pos_gain: float = Field(0.08, ge=0, le=1,
+                                         description="velocity correction per metre of position innovation")
     gps_vel_gain: float = Field(0.25, ge=0, le=1)
     baro_gain: float = Field(0.02, ge=0, le=1, description="share of the baro height innovation per sample")
     correction_spread_s: float = Field(0.2, ge=0, description="GPS corrections are applied smoothly over this time")
@@ -120,8 +68,8 @@ class EmulatorConfig(_Model):
     lockstep: bool = True
 
 
-_PAPER_VEHICLE = dict(mass=1.0, Ixx=0.121, Iyy=0.121, Izz=0.151, arm_length=0.5, thrust_max=40.0,
-                      thrust_curve_k=0.0, yaw_moment_coeff=0.05, reversible=True)
+_PAPER_VEHICLE = {"mass": 1.0, "Ixx": 0.121, "Iyy": 0.121, "Izz": 0.151, "arm_length": 0.5, "thrust_max": 40.0,
+                  "thrust_curve_k": 0.0, "yaw_moment_coeff": 0.05, "reversible": True}
 # The inspection quad has ~1/11 of the paper airframe's inertia and 20 ms rotor lag: the attitude
 # gains are scaled by the inertia ratio and its bandwidth lowered below the rotors' (our choice).
 # It flies on noisy sensors, where the paper's pure gradient law drifts (S1ᵀū_s contains −c1|S1|²,
@@ -150,8 +98,8 @@ def build_config(overrides: dict[str, Any] | None = None) -> EmulatorConfig:
     """An airframe preset (overrides['airframe'], default inspection_quad) with any field overridden."""
     overrides = overrides or {}
     airframe = overrides.get("airframe", "inspection_quad")
-    if airframe not in PRESETS:
-        raise ValueError(f"unknown airframe '{airframe}': expected one of {', '.join(PRESETS)}")
+    if not isinstance(airframe, str) or airframe not in PRESETS:
+        raise ValueError(f"unknown airframe {airframe!r:.80}: expected one of {', '.join(PRESETS)}")
     return EmulatorConfig.model_validate(_merge({"airframe": airframe, **PRESETS[airframe]}, overrides))
 
 

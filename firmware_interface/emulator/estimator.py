@@ -4,7 +4,8 @@ Attitude: a Mahony complementary filter. The accelerometer reference is not grav
 expected specific force Rᵀ(â − g e3), with â the low-passed rate of change of the GPS velocity:
 a multirotor's accelerometer reads thrust and drag, and equals −g rotated only when the vehicle
 is not accelerating. (â must not come from the accelerometer itself: the reference would then
-equal the measurement and tilt would go unobserved.) Heading from the magnetometer against the WMM field at the first GPS fix.
+equal the measurement and tilt would go unobserved.) Heading from the magnetometer against the WMM
+field at the first GPS fix.
 Position/velocity: driven by the rotated accelerometer, corrected by baro height and by GPS
 against the state buffered at the fix's measurement time (fix arrival minus the configured GPS
 delay, as EKF2_GPS_DELAY), the correction then applied to the present state.
@@ -21,7 +22,7 @@ from pygeomag import GeoMag
 
 from firmware_interface.emulator.config import EstimatorSettings
 from firmware_interface.emulator.geometry import euler_to_quat, quat_multiply, quat_to_dcm, quat_to_euler, wrap_pi
-from firmware_interface.geodesy import LocalFrame
+from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2, LocalFrame
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 
 E3 = np.array((0.0, 0.0, 1.0))
@@ -39,7 +40,7 @@ class Estimate:
 
 
 class Estimator:
-    def __init__(self, settings: EstimatorSettings, g: float = 9.80665) -> None:
+    def __init__(self, settings: EstimatorSettings, g: float = STANDARD_GRAVITY_M_S2) -> None:
         self.settings = settings
         self.g = g
         self.q = np.array((1.0, 0.0, 0.0, 0.0))

@@ -1,7 +1,8 @@
 """The emulated flight controller: PX4's HIL protocol on one side, the paper's controllers inside.
 
 Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, quadrotor, HIL_ENABLED), takes
-HIL_SENSOR / HIL_GPS (and HIL_STATE_QUATERNION as truth when configured), answers COMMAND_LONG
+HIL_SENSOR / HIL_GPS (and, as truth when configured, ODOMETRY in the local frame at float precision, or
+PX4 SITL's HIL_STATE_QUATERNION, whose integer lat/lon, mm and cm/s quantise it), answers COMMAND_LONG
 with COMMAND_ACK, follows SET_POSITION_TARGET_LOCAL_NED in offboard mode, and answers each
 HIL_SENSOR with exactly one HIL_ACTUATOR_CONTROLS (lockstep flag set, time_usec echoed, as PX4
 SITL does). It knows only MAVLink bytes and its own configuration, never the plant.
@@ -14,32 +15,60 @@ import time
 from collections.abc import Callable
 
 import numpy as np
+from pymavlink.dialects.v20.common import (
+    MAV_AUTOPILOT_PX4,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_NAV_LAND,
+    MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAV_CMD_SET_MESSAGE_INTERVAL,
+    MAV_LANDED_STATE_IN_AIR,
+    MAV_LANDED_STATE_LANDING,
+    MAV_LANDED_STATE_ON_GROUND,
+    MAV_PARAM_TYPE_REAL32,
+    MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
+    MAV_PROTOCOL_CAPABILITY_MAVLINK2,
+    MAV_PROTOCOL_CAPABILITY_MISSION_INT,
+    MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT,
+    MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_TEMPORARILY_REJECTED,
+    MAV_RESULT_UNSUPPORTED,
+    MAV_SEVERITY_CRITICAL,
+    MAV_SEVERITY_INFO,
+    MAV_STATE_ACTIVE,
+    MAV_STATE_BOOT,
+    MAV_STATE_STANDBY,
+    MAV_TYPE_QUADROTOR,
+    MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+)
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.emulator.config import EmulatorConfig
-from firmware_interface.emulator.control import ControlOutput, Setpoint, VehicleState, make_controller
+from firmware_interface.emulator.control import ControlOutput, Setpoint, VehicleState
+from firmware_interface.emulator.control.registry import DEBUG_NAME_LENGTH, make_controller, wire_name
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.geometry import euler_to_quat, quat_to_euler
 from firmware_interface.emulator.mixer import Mixer
 from firmware_interface.emulator.params import Parameter, parameter_table
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Link, LinkLost, Message
+from firmware_interface.px4_modes import (
+    FORCE_DISARM_MAGIC,
+    PX4_AUTO_SUB_MODE_LAND,
+    PX4_MAIN_MODE_AUTO,
+    PX4_MAIN_MODE_OFFBOARD,
+    PX4_MAIN_MODE_POSCTL,
+    custom_mode,
+)
 
-MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_PX4 = 2, 12
-MAV_STATE_STANDBY, MAV_STATE_ACTIVE, MAV_STATE_BOOT = 3, 4, 1
-MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED = 0, 1, 2, 3
-MAV_CMD_NAV_LAND, MAV_CMD_DO_SET_MODE, MAV_CMD_ARM_DISARM, MAV_CMD_SET_MESSAGE_INTERVAL = 21, 176, 400, 511
-MAV_CMD_REQUEST_MESSAGE, MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES = 512, 520
-MSG_ID_AUTOPILOT_VERSION = 148
-MAV_PARAM_TYPE_REAL32 = 9
-# MAVLINK2 | PARAM_FLOAT | SET_POSITION_TARGET_LOCAL_NED | COMMAND_INT | MISSION_INT: what a GCS may use
-CAPABILITIES = 8192 | 2 | 128 | 8 | 4
+# what a GCS may use
+CAPABILITIES = (MAV_PROTOCOL_CAPABILITY_MAVLINK2 | MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
+                | MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED | MAV_PROTOCOL_CAPABILITY_COMMAND_INT
+                | MAV_PROTOCOL_CAPABILITY_MISSION_INT)
 FLIGHT_SW_VERSION = (0 << 24) | (1 << 16) | (0 << 8) | 255  # hil-bench emulator 0.1.0, release
-MAV_LANDED_STATE_ON_GROUND, MAV_LANDED_STATE_IN_AIR, MAV_LANDED_STATE_LANDING = 1, 2, 4
-FORCE_DISARM_MAGIC = 21196  # COMPONENT_ARM_DISARM param2 that disarms in the air, as PX4's commander
-PX4_MAIN_MODE_POSCTL, PX4_MAIN_MODE_AUTO, PX4_MAIN_MODE_OFFBOARD = 3, 4, 6
-PX4_AUTO_SUB_MODE_LAND = 6
-SEVERITY_CRITICAL, SEVERITY_INFO = 2, 6
 HEARTBEAT_PERIOD_US = 1_000_000
 TELEMETRY_PERIOD_US = 20_000  # ATTITUDE, LOCAL_POSITION_NED, ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY at 50 Hz
 EXTENDED_SYS_STATE_PERIOD_US = 200_000  # 5 Hz, PX4's rate on its onboard link
@@ -65,7 +94,7 @@ class EmulatedBoard:
         self.controller = make_controller(config)
         self.mixer = Mixer(config.vehicle)
         self.estimator = Estimator(config.estimator, config.vehicle.g)
-        self.truth: codec.GroundTruth | None = None
+        self.truth: VehicleState | None = None  # the latest true state received (state_source truth)
         self.armed = False
         self.offboard = False
         self.setpoint: Setpoint | None = None
@@ -110,7 +139,7 @@ class EmulatedBoard:
             self.last_heartbeat = now
         if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:
             self._disarm()
-            self._status(SEVERITY_CRITICAL, f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
+            self._status(MAV_SEVERITY_CRITICAL, f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
 
     def handle(self, msg: Message) -> None:
         kind = msg.get_type()
@@ -119,8 +148,10 @@ class EmulatedBoard:
         elif kind == "HIL_GPS":
             if self.last_sensor_t_us is not None:
                 self.estimator.on_gps(codec.read_hil_gps(msg), self.last_sensor_t_us)
+        elif kind == "ODOMETRY":
+            self.truth = self._truth_from_odometry(codec.read_odometry(msg))
         elif kind == "HIL_STATE_QUATERNION":
-            self.truth = codec.read_hil_state_quaternion(msg)
+            self.truth = self._truth_from_ground_truth(codec.read_hil_state_quaternion(msg))
         elif kind == "COMMAND_LONG":
             self._on_command(msg)
         elif kind in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
@@ -141,12 +172,12 @@ class EmulatedBoard:
         if self.boot_us is None:
             self.boot_us = readings.t_us
         self.estimator.on_sensors(readings)
-        motors = (0.0, 0.0, 0.0, 0.0)
+        motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         state = self._state()
         if self.landed_at_us is not None and readings.t_us - self.landed_at_us >= DISARM_AFTER_LAND_S * 1e6:
             self.landed_at_us = None
             self._disarm()
-            self._status(SEVERITY_INFO, "Disarmed by landing")
+            self._status(MAV_SEVERITY_INFO, "Disarmed by landing")
         if self.armed and state is not None and 0.0 < dt < 0.1 and self.landed_at_us is None:
             motors = self._control(state, dt)
             if self.landing:
@@ -168,21 +199,24 @@ class EmulatedBoard:
 
     def _state(self) -> VehicleState | None:
         if self.config.state_source == "truth":
-            t = self.truth
-            if t is None:
-                return None
-            q = np.array(t.q_wxyz)
-            pos = self._truth_position(t)
-            return VehicleState(pos, np.array(t.vel_ned), quat_to_euler(q), np.array(t.rates_frd))
+            return self.truth
         if not self.estimator.aligned:
             return None
         e = self.estimator.estimate()
         return VehicleState(e.pos_ned, e.vel_ned, e.eta, e.rates_frd)
 
-    def _truth_position(self, t: codec.GroundTruth) -> np.ndarray:
-        if self.estimator.origin is None:  # the first truth sample defines the origin, as a first fix would
+    @staticmethod
+    def _truth_from_odometry(t: codec.LocalTruth) -> VehicleState:
+        """ODOMETRY's float32 values as they are: position in the sender's local NED frame."""
+        return VehicleState(np.array(t.pos_ned), np.array(t.vel_ned), quat_to_euler(np.array(t.q_wxyz)),
+                            np.array(t.rates_frd))
+
+    def _truth_from_ground_truth(self, t: codec.GroundTruth) -> VehicleState:
+        """HIL_STATE_QUATERNION about the first sample's lat/lon (the origin a first fix would set)."""
+        if self.estimator.origin is None:
             self.estimator.origin = LocalFrame(t.lat_deg, t.lon_deg, t.alt_msl_m)
-        return np.array(self.estimator.origin.to_ned(t.lat_deg, t.lon_deg, t.alt_msl_m))
+        pos = np.array(self.estimator.origin.to_ned(t.lat_deg, t.lon_deg, t.alt_msl_m))
+        return VehicleState(pos, np.array(t.vel_ned), quat_to_euler(np.array(t.q_wxyz)), np.array(t.rates_frd))
 
     def _control(self, state: VehicleState, dt: float) -> tuple[float, ...]:
         if self.takeoff_d is None:
@@ -219,7 +253,7 @@ class EmulatedBoard:
             self.landing = False
             self.airborne = False
             self.landed_at_us = t_us
-            self._status(SEVERITY_INFO, "Landing detected")
+            self._status(MAV_SEVERITY_INFO, "Landing detected")
 
     def _start_landing(self) -> int:
         state = self._state()
@@ -232,7 +266,7 @@ class EmulatedBoard:
         self.hover_thrust_n = self.last_control.thrust_n if self.last_control is not None else nominal_n
         self.hold = Setpoint(state.pos_ned.copy(), np.array((0.0, 0.0, self.land_speed_m_s)), np.zeros(3),
                              float(state.eta[2]))
-        self._status(SEVERITY_INFO, "Landing at current position")
+        self._status(MAV_SEVERITY_INFO, "Landing at current position")
         return MAV_RESULT_ACCEPTED
 
     # --- commands -----------------------------------------------------------------
@@ -240,11 +274,11 @@ class EmulatedBoard:
         if msg.target_system not in (0, self.config.system_id):
             return
         result = MAV_RESULT_UNSUPPORTED
-        if msg.command == MAV_CMD_ARM_DISARM:
+        if msg.command == MAV_CMD_COMPONENT_ARM_DISARM:
             if msg.param1 == 1.0:
                 result = self._arm()
             elif self.airborne and round(msg.param2) != FORCE_DISARM_MAGIC:
-                self._status(SEVERITY_CRITICAL, "Disarming denied: not landed")
+                self._status(MAV_SEVERITY_CRITICAL, "Disarming denied: not landed")
                 result = MAV_RESULT_TEMPORARILY_REJECTED
             else:
                 self._disarm()
@@ -254,7 +288,7 @@ class EmulatedBoard:
         elif msg.command == MAV_CMD_DO_SET_MODE:
             wants_offboard = int(msg.param2) == PX4_MAIN_MODE_OFFBOARD
             if wants_offboard and self.setpoint is None:
-                self._status(SEVERITY_CRITICAL, "Offboard refused: no setpoint stream")
+                self._status(MAV_SEVERITY_CRITICAL, "Offboard refused: no setpoint stream")
                 result = MAV_RESULT_DENIED
             else:
                 self.offboard = wants_offboard
@@ -262,7 +296,7 @@ class EmulatedBoard:
         elif msg.command == MAV_CMD_SET_MESSAGE_INTERVAL:
             result = MAV_RESULT_ACCEPTED
         elif msg.command == MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES or (
-                msg.command == MAV_CMD_REQUEST_MESSAGE and int(msg.param1) == MSG_ID_AUTOPILOT_VERSION):
+                msg.command == MAV_CMD_REQUEST_MESSAGE and int(msg.param1) == MAVLINK_MSG_ID_AUTOPILOT_VERSION):
             self._autopilot_version()
             result = MAV_RESULT_ACCEPTED
         self.link.send("COMMAND_ACK", command=msg.command, result=result, progress=0, result_param2=0,
@@ -271,7 +305,7 @@ class EmulatedBoard:
     def _arm(self) -> int:
         ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
         if not ready:
-            self._status(SEVERITY_CRITICAL, "Arming denied: estimator not settled")
+            self._status(MAV_SEVERITY_CRITICAL, "Arming denied: estimator not settled")
             return MAV_RESULT_DENIED
         if not self.armed:
             self.armed = True
@@ -279,7 +313,7 @@ class EmulatedBoard:
             self.takeoff_d = None
             self.airborne = False
             self.hold = None
-            self._status(SEVERITY_INFO, f"Armed ({self.controller.name})")
+            self._status(MAV_SEVERITY_INFO, f"Armed ({self.controller.name})")
         return MAV_RESULT_ACCEPTED
 
     def _disarm(self) -> None:
@@ -304,7 +338,7 @@ class EmulatedBoard:
         parameter = self.parameters[index]
         if kind == "PARAM_SET" and parameter.set is not None:
             parameter.set(float(msg.param_value))
-            self._status(SEVERITY_INFO, f"{parameter.name} set to {parameter.get():g}")
+            self._status(MAV_SEVERITY_INFO, f"{parameter.name} set to {parameter.get():g}")
         self._param_value(index)  # for a read-only one, the unchanged value says it was not set
 
     def _param_value(self, index: int) -> None:
@@ -322,13 +356,13 @@ class EmulatedBoard:
     def _heartbeat(self) -> None:
         base_mode = codec.MODE_FLAG_CUSTOM | codec.MODE_FLAG_HIL | (codec.MODE_FLAG_ARMED if self.armed else 0)
         if self.landing:
-            custom_mode = PX4_MAIN_MODE_AUTO << 16 | PX4_AUTO_SUB_MODE_LAND << 24
+            mode = custom_mode(PX4_MAIN_MODE_AUTO, PX4_AUTO_SUB_MODE_LAND)
         else:
-            custom_mode = (PX4_MAIN_MODE_OFFBOARD if self.offboard else PX4_MAIN_MODE_POSCTL) << 16
+            mode = custom_mode(PX4_MAIN_MODE_OFFBOARD if self.offboard else PX4_MAIN_MODE_POSCTL)
         ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
         status = MAV_STATE_ACTIVE if self.armed else (MAV_STATE_STANDBY if ready else MAV_STATE_BOOT)
         self.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
-                       custom_mode=custom_mode, system_status=status, mavlink_version=3)
+                       custom_mode=mode, system_status=status, mavlink_version=3)
 
     def _status(self, severity: int, text: str) -> None:
         self.link.send("STATUSTEXT", severity=severity, text=text[:50].ljust(50, "\0"), id=0, chunk_seq=0)
@@ -357,5 +391,6 @@ class EmulatedBoard:
         self.link.send("ATTITUDE_TARGET", time_boot_ms=boot_ms, type_mask=0, q=[float(c) for c in q_cmd],
                        body_roll_rate=0.0, body_pitch_rate=0.0, body_yaw_rate=0.0, thrust=thrust)
         values = [float(out.internals[k]) for k in self.controller.internal_keys]
-        self.link.send("DEBUG_FLOAT_ARRAY", time_usec=t_us, name=self.controller.name[:10].ljust(10, "\0"),
-                       array_id=1, data=values + [0.0] * (58 - len(values)))
+        name = wire_name(self.controller.name).ljust(DEBUG_NAME_LENGTH, "\0")
+        self.link.send("DEBUG_FLOAT_ARRAY", time_usec=t_us, name=name, array_id=1,
+                       data=values + [0.0] * (58 - len(values)))

@@ -81,7 +81,8 @@ def coriolis_matrix(inertia: np.ndarray, eta: np.ndarray, eta_dot: np.ndarray) -
     c31 = (iy - iz) * yd * sr * cr * cp * cp - ix * pd * cp
     c32 = ((iz - iy) * (pd * sr * cr * sp + rd * sr * sr * cp) + (iy - iz) * rd * cr * cr * cp
            + ix * yd * cp * sp - iy * yd * sr * sr * cp * sp - iz * yd * cr * cr * cp * sp)
-    c33 = (iy - iz) * rd * sr * cr * cp * cp - iy * pd * sr * sr * cp * sp - iz * pd * cr * cr * cp * sp + ix * pd * cp * sp
+    c33 = ((iy - iz) * rd * sr * cr * cp * cp - iy * pd * sr * sr * cp * sp - iz * pd * cr * cr * cp * sp
+           + ix * pd * cp * sp)
     return np.array(((0.0, c12, c13), (-c12, c22, c23), (c31, c32, c33)))
 
 

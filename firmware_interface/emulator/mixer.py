@@ -43,7 +43,7 @@ class Mixer:
         base = collective + rp
         yaw = inv[:, 3] * torque_frd[2]
         share = 1.0
-        for b, y in zip(base, yaw):  # the largest share of the yaw torque that still fits
+        for b, y in zip(base, yaw, strict=True):  # the largest share of the yaw torque that still fits
             if y > 0:
                 share = min(share, (t_max - b) / y)
             elif y < 0:

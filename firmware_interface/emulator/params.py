@@ -12,12 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-# controller -> (parameter prefix, the gains its update reads each step)
-RUNTIME_GAINS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "smarc": ("SMARC", ("c1", "lambda1", "gamma1", "gamma2", "d_max", "mass_min", "mass_max")),
-    "smpid": ("SMPID", ("kp_z", "kd_z", "ki_z", "integral_limit", "lambda_xy", "c_xy", "epsilon_xy")),
-    "backstepping": ("BS", ("k1", "k2", "k3", "k4")),
-}
+from firmware_interface.emulator.control.registry import PLUGINS
 
 
 @dataclass(frozen=True)
@@ -31,14 +26,14 @@ def _gain(controller: Any, field: str) -> Parameter:
     def set_gain(value: float) -> None:
         controller.gains = controller.gains.model_copy(update={field: value})
 
-    prefix = RUNTIME_GAINS[controller.name][0]
+    prefix = PLUGINS[controller.name].param_prefix
     return Parameter(f"{prefix}_{field.upper()}"[:16], lambda: float(getattr(controller.gains, field)), set_gain)
 
 
 def parameter_table(board: Any) -> list[Parameter]:
     """The parameters of an EmulatedBoard, in the order a ground station lists them."""
     controller = board.controller
-    table = [_gain(controller, field) for field in RUNTIME_GAINS[controller.name][1]]
+    table = [_gain(controller, field) for field in PLUGINS[controller.name].runtime_gains]
 
     def set_gps_delay(ms: float) -> None:
         board.estimator.settings = board.estimator.settings.model_copy(update={"gps_delay_s": ms / 1000.0})

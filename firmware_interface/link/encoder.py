@@ -23,21 +23,21 @@ _crc16 = fastcrc.crc16.mcrf4xx
 class _Layout:
     """How one message class lays its fields on the wire."""
 
-    def __init__(self, cls: type) -> None:
+    def __init__(self, cls: Any) -> None:  # a pymavlink message class (untyped)
         self.msgid: int = cls.id
         self.crc_extra = bytes((cls.crc_extra,))
         self.struct: struct.Struct = cls.unpacker
-        types = dict(zip(cls.fieldnames, cls.fieldtypes))
+        types = dict(zip(cls.fieldnames, cls.fieldtypes, strict=True))
         self.fields: list[tuple[str, int]] = []
-        for name, count in zip(cls.ordered_fieldnames, cls.array_lengths):
+        for name, count in zip(cls.ordered_fieldnames, cls.array_lengths, strict=True):
             flat = count if count and types[name] != "char" else 0
             self.fields.append((name, flat))
 
 
-_LAYOUTS: dict[type, _Layout] = {}
+_LAYOUTS: dict[Any, _Layout] = {}
 
 
-def _layout(cls: type) -> _Layout:
+def _layout(cls: Any) -> _Layout:
     layout = _LAYOUTS.get(cls)
     if layout is None:
         layout = _LAYOUTS[cls] = _Layout(cls)
@@ -52,7 +52,7 @@ class FrameEncoder:
         self.component_id = component_id
         self.seq = 0
 
-    def encode(self, cls: type, values: Mapping[str, Any]) -> bytes:
+    def encode(self, cls: Any, values: Mapping[str, Any]) -> bytes:
         """Frame for message class `cls` (e.g. MAVLink_hil_sensor_message) from field values."""
         layout = _layout(cls)
         flat: list[Any] = []

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import Any, Self, TypeAlias
 
 from pymavlink.dialects.v20 import common
 
@@ -14,10 +14,10 @@ from firmware_interface.link.dialect import PASSTHROUGH, frame_msgid
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.errors import LinkLost
 from firmware_interface.link.faults import LinkFaults
-from firmware_interface.link.scanner import FrameScanner
+from firmware_interface.link.scanner import FrameScanner, partial_timeout_for
 from firmware_interface.link.transports import Transport
 
-Message = common.MAVLink_message
+Message: TypeAlias = Any  # a pymavlink MAVLink_message: pymavlink carries no type information
 FrameTap = Callable[[bytes], None]  # sees every frame sent and every frame accepted, e.g. a TlogWriter
 
 
@@ -29,13 +29,15 @@ class Link:
     """
 
     def __init__(self, transport: Transport, system_id: int = 1, component_id: int = 1,
-                 partial_timeout_s: float = 0.02, tap: FrameTap | None = None) -> None:
+                 partial_timeout_s: float | None = None, tap: FrameTap | None = None) -> None:
         self.transport = transport
         self.tap = tap
         self.faults: LinkFaults | None = None  # injected between the bench and the board (scenario faults.link)
         self.name = transport.name
         self.encoder = FrameEncoder(system_id, component_id)
-        self.scanner = FrameScanner(partial_timeout_s)
+        # a serial line's bytes arrive at its baud rate: a partial frame waits as long as a frame takes
+        self.scanner = FrameScanner(partial_timeout_s if partial_timeout_s is not None
+                                    else partial_timeout_for(getattr(transport, "baud", None)))
         self._decoder = common.MAVLink(None)
         self.decode_errors = 0
         self.passthrough: list[bytes] = []  # valid frames of messages pymavlink cannot decode, kept whole
@@ -99,7 +101,7 @@ class Link:
             return None
         try:
             return self._decoder.decode(bytearray(frame))
-        except Exception:  # noqa: BLE001 - pymavlink raises assorted types; the frame is dropped and counted
+        except Exception:
             self.decode_errors += 1
             return None
 
@@ -116,7 +118,7 @@ class Link:
             self._closed = True
             self.transport.close()
 
-    def __enter__(self) -> Link:
+    def __enter__(self) -> Self:
         return self
 
     def __exit__(self, *exc: object) -> None:

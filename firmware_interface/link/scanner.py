@@ -1,10 +1,10 @@
 """A byte scanner that finds MAVLink v1/v2 frames on a noisy line.
 
 pymavlink's stream parser trusts LEN and consumes a whole span before validating it,
-so one fake `FD FF` can swallow 267 bytes of good frames (protocol reference §6.2).
+so one fake `FD FF` can swallow 267 bytes of good frames (docs/px4_protocol.md §2.2).
 This scanner validates everything it can as soon as the bytes are there (LEN against
 the message's full payload, known id, incompat flags, CRC with CRC_EXTRA) and on any
-failure drops only the start byte and rescans from the next one (§6.3).
+failure drops only the start byte and rescans from the next one (same section).
 """
 
 from __future__ import annotations
@@ -39,10 +39,23 @@ class Reject(StrEnum):
 _NEED_MORE = -1
 
 
+MAX_FRAME_BYTES = 280  # a signed MAVLink 2 frame with a 255-byte payload
+BITS_PER_BYTE = 10  # 8N1: start, 8 data, stop
+DEFAULT_PARTIAL_TIMEOUT_S = 0.02
+
+
+def partial_timeout_for(baud: int | None) -> float:
+    """How long a partial frame may wait for its bytes: twice the longest frame's transfer time at the
+    line's baud rate, and never less than 20 ms (a pty or socket has no byte rate: None)."""
+    if not baud:
+        return DEFAULT_PARTIAL_TIMEOUT_S
+    return max(DEFAULT_PARTIAL_TIMEOUT_S, 2 * MAX_FRAME_BYTES * BITS_PER_BYTE / baud)
+
+
 class FrameScanner:
     """Feed bytes in, get complete, CRC-checked frames (as bytes) out, in order."""
 
-    def __init__(self, partial_timeout_s: float = 0.02) -> None:
+    def __init__(self, partial_timeout_s: float = DEFAULT_PARTIAL_TIMEOUT_S) -> None:
         self.partial_timeout_s = partial_timeout_s
         self.counts: Counter[str] = Counter({r.value: 0 for r in Reject})
         self.frames_accepted = 0

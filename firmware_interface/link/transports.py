@@ -97,6 +97,7 @@ class SerialTransport(FdTransport):
         except (serial.SerialException, OSError) as exc:
             raise LinkError(f"cannot open {path}: {exc} (is QGroundControl or another program holding it?)") from exc
         super().__init__(self._port.fileno(), path)
+        self.baud = baud
 
     def close(self) -> None:
         self._port.close()

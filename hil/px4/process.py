@@ -17,6 +17,7 @@ import subprocess
 import tempfile
 import time
 from collections.abc import Callable
+from contextlib import suppress
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
@@ -89,7 +90,7 @@ class Px4Process:
         try:
             self.popen = subprocess.Popen(argv, cwd=rootfs, env={**os.environ, **env}, stdin=subprocess.DEVNULL,
                                           stdout=self._log, stderr=subprocess.STDOUT, start_new_session=True,
-                                          preexec_fn=preexec)
+                                          preexec_fn=preexec)  # noqa: PLW1509 - PR_SET_PDEATHSIG: dies with parent
         except OSError as exc:
             self._log.close()
             raise Px4StartError(f"cannot start {build.px4}: {exc.strerror}") from exc
@@ -119,12 +120,10 @@ class Px4Process:
     def stop(self) -> None:
         """`px4-shutdown`, then SIGTERM, then SIGKILL to the whole group; returns within ~1.3 s."""
         if self.popen.poll() is None:
-            try:
+            with suppress(OSError, subprocess.TimeoutExpired):
                 subprocess.run([str(self.build.client("shutdown")), "--instance", str(self.instance)],
                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                timeout=SHUTDOWN_WAIT_S, start_new_session=True)
-            except (OSError, subprocess.TimeoutExpired):
-                pass
             self._wait(SHUTDOWN_WAIT_S)
         if self.popen.poll() is None:
             self._signal_group(signal.SIGTERM)
@@ -140,7 +139,5 @@ class Px4Process:
             time.sleep(0.01)
 
     def _signal_group(self, signum: int) -> None:
-        try:
+        with suppress(ProcessLookupError, PermissionError):
             os.killpg(self.popen.pid, signum)
-        except (ProcessLookupError, PermissionError):
-            pass

@@ -7,9 +7,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hil.scenario.expressions import compile_expression
 from hil.scenario.schema import Scenario
-from hil.scenario.wind import TURBULENCE_W20_KT, KNOT, DrydenTurbulence, one_minus_cosine
+from hil.scenario.wind import (
+    KNOT,
+    TURBULENCE_W20_KT,
+    DrydenTurbulence,
+    one_minus_cosine,
+)
 
 
 @dataclass
@@ -35,8 +39,8 @@ class Environment:
             heading = math.atan2(self.steady[1], self.steady[0]) if np.any(self.steady[:2]) else 0.0
             self.turbulence = DrydenTurbulence(TURBULENCE_W20_KT[turbulence.intensity] * KNOT, turbulence.altitude_m,
                                                turbulence.airspeed_m_s, heading, dt, rng)
-        self.force = [compile_expression(e) for e in scenario.disturbance.force_ned]
-        self.torque = [compile_expression(e) for e in scenario.disturbance.torque_frd]
+        self.force = scenario.disturbance.functions("force_ned")
+        self.torque = scenario.disturbance.functions("torque_frd")
         self.payload = sorted((p.t_s, p.mass_kg) for p in scenario.payload)
         self.motor_faults = scenario.faults.motors
 

@@ -10,7 +10,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hil.scenario.reference import Helix, Hover, Patrol, RefSample, Trajectory, Waypoints
+from hil.scenario.reference import (
+    Helix,
+    Hover,
+    Patrol,
+    RefSample,
+    Trajectory,
+    Waypoints,
+)
 from hil.scenario.schema import HelixRef, HoverRef, PatrolRef, Scenario, WaypointsRef
 
 CLIMB_SPEED = 1.5  # m/s peak on the take-off and landing segments
@@ -32,6 +39,10 @@ def build_reference(scenario: Scenario) -> Trajectory:
                   ref.passes)
 
 
+def _point(pos_ned: np.ndarray) -> tuple[float, float, float]:
+    return float(pos_ned[0]), float(pos_ned[1]), float(pos_ned[2])
+
+
 @dataclass
 class MissionPlan:
     reference: Trajectory
@@ -44,8 +55,7 @@ class MissionPlan:
         reference = build_reference(scenario)
         start = reference.sample(0.0)
         above_ground = (ground_ned[0], ground_ned[1], float(start.pos_ned[2]))
-        takeoff = Waypoints((ground_ned, above_ground, tuple(float(v) for v in start.pos_ned)), CLIMB_SPEED,
-                            0.0, start.yaw)
+        takeoff = Waypoints((ground_ned, above_ground, _point(start.pos_ned)), CLIMB_SPEED, 0.0, start.yaw)
         return cls(reference, takeoff, takeoff.duration_s + HOLD_BEFORE_S, scenario.duration_s)
 
     def sample(self, t: float) -> RefSample:
@@ -56,4 +66,4 @@ class MissionPlan:
 
     def landing(self, from_ned: np.ndarray, yaw: float) -> Waypoints:
         ground = (float(from_ned[0]), float(from_ned[1]), 0.0)
-        return Waypoints((tuple(float(v) for v in from_ned), ground), CLIMB_SPEED, 0.0, yaw)
+        return Waypoints((_point(from_ned), ground), CLIMB_SPEED, 0.0, yaw)

@@ -7,8 +7,11 @@ moving is entered through a smooth time warp τ(t) whose rate ramps from 0 to 1 
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
+from functools import cached_property
+from itertools import pairwise
 from typing import Protocol
 
 import numpy as np
@@ -90,11 +93,12 @@ class Waypoints:
     dwell_s: float = 0.0
     yaw: float | None = None  # None: face along each segment
 
+    @cached_property
     def _segments(self) -> list[tuple[float, np.ndarray, np.ndarray, float, float]]:
-        """(start time, from, to, duration, yaw) per segment."""
+        """(start time, from, to, duration, yaw) per segment, built once."""
         out, t = [], 0.0
         pts = [np.array(p, float) for p in self.points_ned]
-        for a, b in zip(pts, pts[1:]):
+        for a, b in pairwise(pts):
             length = float(np.linalg.norm(b - a))
             duration = max(PEAK_RATE * length / self.speed, 1e-6)
             yaw = self.yaw if self.yaw is not None else math.atan2(b[1] - a[1], b[0] - a[0])
@@ -102,17 +106,19 @@ class Waypoints:
             t += duration + self.dwell_s
         return out
 
+    @cached_property
+    def _starts(self) -> list[float]:
+        return [segment[0] for segment in self._segments]
+
     @property
     def duration_s(self) -> float:
-        segments = self._segments()
+        segments = self._segments
         return segments[-1][0] + segments[-1][3] if segments else 0.0
 
     def sample(self, t: float) -> RefSample:
-        segments = self._segments()
-        start, a, b, duration, yaw = segments[0]
-        for segment in segments:
-            if t >= segment[0]:
-                start, a, b, duration, yaw = segment
+        """O(log n) in the number of points: the segment by bisection of the start times."""
+        index = max(bisect.bisect_right(self._starts, t) - 1, 0)
+        start, a, b, duration, yaw = self._segments[index]
         s, ds, dds = _smooth((t - start) / duration)
         delta = b - a
         return RefSample(a + s * delta, ds / duration * delta, dds / duration**2 * delta, yaw)
@@ -132,6 +138,7 @@ class Patrol:
     dwell_s: float = 2.0
     passes: int = 2
 
+    @cached_property
     def as_waypoints(self) -> Waypoints:
         a, b = np.array(self.line_start_ned, float), np.array(self.line_end_ned, float)
         direction = (b - a) / max(float(np.linalg.norm(b - a)), 1e-9)
@@ -140,7 +147,7 @@ class Patrol:
         ends = [tuple(a + offset), tuple(b + offset)]
         points = [ends[i % 2] for i in range(self.passes + 1)]
         facing_line = math.atan2(-right[1], -right[0])
-        return Waypoints(tuple(points), self.speed, self.dwell_s, facing_line)  # type: ignore[arg-type]
+        return Waypoints(tuple(points), self.speed, self.dwell_s, facing_line)
 
     def sample(self, t: float) -> RefSample:
-        return self.as_waypoints().sample(t)
+        return self.as_waypoints.sample(t)

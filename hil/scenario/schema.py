@@ -1,44 +1,112 @@
-"""The scenario file, as a typed schema. Every field has a default except the name."""
+"""The scenario file, as a typed schema. Every field has a default except the name.
+
+Numbers: every float in a scenario is finite (`allow_inf_nan=False` on the base model, and on the sensor and
+emulator models a scenario reaches), except a fault's `end_s`, where `.inf` means "until the end". Bounds that
+keep a run possible and finite are on the fields' types: a mission of at most MAX_DURATION_S, positions
+within MAX_DISTANCE_M of home (take-off flies there at 1.5 m/s), at most MAX_MASS_KG. What depends on several
+fields is checked once the whole file has parsed (`Scenario._consistent`): every time on the mission clock
+inside the mission, intervals that end after they start, expressions over the mission, thrust-to-weight.
+"""
 
 from __future__ import annotations
 
 import math
-from typing import Annotated, Any, Literal
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
-from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Tag,
+    ValidationError,
+    ValidationInfo,
+    create_model,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import InitErrorDetails, PydanticCustomError
 
-from hil.scenario.expressions import compile_expression
+from firmware_interface.emulator.config import build_config
+from firmware_interface.emulator.control.registry import ControllerName
+from hil.channels import CHANNEL_MODELS
+from hil.scenario.expressions import ExpressionError, compile_expression
+from hil.scenario.vehicles import plant_parameters, thrust_to_weight
 from hil.sensors.faults import SensorFault
+from hil.sensors.geodesy import MAX_DISTANCE_M, Home
 from hil.sensors.suite import SensorsConfig
 from plant_fmu.variables import PARAMETER_NAMES
 
-Vec3 = tuple[float, float, float]
+MAX_DURATION_S = 86_400.0  # 24 h of simulated time: longer would never finish in practice
+MAX_MASS_KG = 1_000.0
+MAX_SPEED_M_S = 100.0  # reference speeds and wind components
+MAX_RATE_HZ = 10_000.0  # telemetry rates
+MIN_INTEGRATION_STEP_S = 1e-6
+MAX_WAYPOINTS = 10_000  # a long inspection route; the reference finds its segment by bisection
+MAX_PASSES = 1000
+CHECK_ERROR = "scenario_check"  # the error type of the checks across fields (their messages say it all)
+MISSION_TIMES = ("start_s", "t_s", "settle_s")  # fields, in any part of a scenario, timed on the mission clock
+
+Duration = Annotated[float, Field(gt=0, le=MAX_DURATION_S)]
+MissionTime = Annotated[float, Field(ge=0, le=MAX_DURATION_S)]
+UntilEnd = Annotated[float, Field(gt=0, allow_inf_nan=True, description="s, or .inf (null in JSON): until the end"),
+                     BeforeValidator(lambda value: math.inf if value is None else value)]  # orjson writes inf as null
+Distance = Annotated[float, Field(ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)]
+Length = Annotated[float, Field(gt=0, le=MAX_DISTANCE_M)]
+Speed = Annotated[float, Field(gt=0, le=MAX_SPEED_M_S)]
+WindSpeed = Annotated[float, Field(ge=-MAX_SPEED_M_S, le=MAX_SPEED_M_S)]
+Mass = Annotated[float, Field(ge=0, le=MAX_MASS_KG)]
 PositiveFloat = Annotated[float, Field(gt=0)]
+Position = tuple[Distance, Distance, Distance]
+WindVector = tuple[WindSpeed, WindSpeed, WindSpeed]
+
+
+def _number_unless(when: tuple[type, ...]) -> Discriminator:
+    """Picks the "other" branch of a number-or-other union by the value's Python type (one of `when`), so
+    that a mistake is reported once, by the branch the value was meant for, rather than once by each."""
+    return Discriminator(lambda value: "other" if isinstance(value, when) else "number")
+
+
+ExpressionOrNumber: TypeAlias = Annotated[Annotated[float, Tag("number")] | Annotated[str, Tag("other")],
+                                          _number_unless((str,))]
+ErrorBound: TypeAlias = Annotated[
+    Annotated[PositiveFloat, Tag("number")]
+    | Annotated[tuple[PositiveFloat, PositiveFloat, PositiveFloat], Tag("other")], _number_unless((list, tuple))]
+if TYPE_CHECKING:  # the names are data (the channel table); to a type checker a channel name is a string
+    ChannelName = str
+else:
+    ChannelName = Literal[tuple(CHANNEL_MODELS)]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-_POSITIVE = {"mass", "Ixx", "Iyy", "Izz", "arm_length", "thrust_max", "integration_step", "rotor_speed_max"}
-_NON_NEGATIVE = {"rotor_drag_coeff", "induced_inflow_coeff", "translational_lift_coeff", "flapping_coeff",
-                 "parasitic_drag_area_x", "parasitic_drag_area_y", "parasitic_drag_area_z", "air_density"}
+_BOUNDS: dict[str, dict[str, float]] = {  # FMU parameters beyond finite; any other parameter is any number
+    "mass": {"gt": 0, "le": MAX_MASS_KG},
+    "integration_step": {"ge": MIN_INTEGRATION_STEP_S},
+    **{name: {"gt": 0} for name in ("Ixx", "Iyy", "Izz", "arm_length", "thrust_max", "rotor_speed_max")},
+    **{name: {"ge": 0, "le": 1} for name in ("thrust_curve_k", "rotor_reversible")},
+    **{name: {"ge": 0} for name in ("motor_tau", "yaw_moment_coeff", "drag_coeff_x", "drag_coeff_y",
+                                    "drag_coeff_z", "rotor_drag_coeff", "induced_inflow_coeff",
+                                    "translational_lift_coeff", "flapping_coeff", "parasitic_drag_area_x",
+                                    "parasitic_drag_area_y", "parasitic_drag_area_z", "air_density", "g")},
+}
+
+if TYPE_CHECKING:  # the fields are data (the FMU's parameter table); to a type checker any name is a parameter
+    class _VehicleParameters(BaseModel):
+        def __getattr__(self, name: str) -> float | None: ...
+else:
+    _VehicleParameters = create_model(  # one optional field per FMU parameter, so a typo names its own key
+        "_VehicleParameters",
+        __base__=_Model,
+        **{name: (float | None, Field(None, **_BOUNDS.get(name, {}))) for name in PARAMETER_NAMES},
+    )
 
 
-def _parameter_field(name: str) -> Any:
-    if name in _POSITIVE:
-        return Field(None, gt=0)
-    return Field(None, ge=0) if name in _NON_NEGATIVE else None
-
-
-_VehicleParameters = create_model(  # one optional field per FMU parameter, so a typo names its own key
-    "_VehicleParameters",
-    __config__=ConfigDict(extra="forbid"),
-    **{name: (float | None, _parameter_field(name)) for name in PARAMETER_NAMES},
-)
-
-
-class Vehicle(_VehicleParameters):  # type: ignore[misc, valid-type]
+class Vehicle(_VehicleParameters):
     """A plant preset plus overrides of any FMU parameter (mass, Ixx, thrust_max, ...)."""
 
     preset: Literal["inspection_quad", "paper_airframe"] = "inspection_quad"
@@ -47,67 +115,64 @@ class Vehicle(_VehicleParameters):  # type: ignore[misc, valid-type]
     def overrides(self) -> dict[str, float]:
         return {name: value for name in PARAMETER_NAMES if (value := getattr(self, name)) is not None}
 
-
-class Home(_Model):
-    lat_deg: float = Field(47.397742, ge=-90, le=90)
-    lon_deg: float = Field(8.545594, ge=-180, le=180)
-    alt_msl_m: float = 488.0
+    def thrust_to_weight(self, payload_kg: float) -> float:
+        return thrust_to_weight(plant_parameters(self.preset, self.overrides), payload_kg)
 
 
 class HoverRef(_Model):
     type: Literal["hover"]
-    altitude_m: PositiveFloat = 10.0
-    north_m: float = 0.0
-    east_m: float = 0.0
+    altitude_m: Length = 10.0
+    north_m: Distance = 0.0
+    east_m: Distance = 0.0
     yaw_deg: float = 0.0
 
 
 class HelixRef(_Model):
     type: Literal["helix"]
-    radius_m: PositiveFloat = 1.0
+    radius_m: Length = 1.0
     angular_rate: float = 0.5
     climb_rate: float = 1.0
     yaw_deg: float = 30.0
-    altitude_m: PositiveFloat = 10.0
-    ramp_s: float = Field(2.0, ge=0)
+    altitude_m: Length = 10.0
+    ramp_s: MissionTime = 2.0
 
 
 class WaypointsRef(_Model):
     type: Literal["waypoints"]
-    points_ned: list[Vec3] = Field(min_length=2)
-    speed: PositiveFloat = 2.0
-    dwell_s: float = Field(0.0, ge=0)
+    points_ned: list[Position] = Field(min_length=2, max_length=MAX_WAYPOINTS)
+    speed: Speed = 2.0
+    dwell_s: MissionTime = 0.0
     yaw_deg: float | None = None
 
 
 class PatrolRef(_Model):
     type: Literal["patrol"]
-    line_start_ned: Vec3
-    line_end_ned: Vec3
-    standoff_m: PositiveFloat = 5.0
-    altitude_m: PositiveFloat = 10.0
-    speed: PositiveFloat = 3.0
-    dwell_s: float = Field(2.0, ge=0)
-    passes: int = Field(2, ge=1)
+    line_start_ned: Position
+    line_end_ned: Position
+    standoff_m: Length = 5.0
+    altitude_m: Length = 10.0
+    speed: Speed = 3.0
+    dwell_s: MissionTime = 2.0
+    passes: int = Field(2, ge=1, le=MAX_PASSES)
 
 
 Reference = Annotated[HoverRef | HelixRef | WaypointsRef | PatrolRef, Field(discriminator="type")]
 
 
 class Gust(_Model):
-    start_s: float = Field(ge=0)
-    duration_s: PositiveFloat
-    peak_ned: Vec3
+    start_s: MissionTime
+    duration_s: Duration
+    peak_ned: WindVector
 
 
 class Turbulence(_Model):
     intensity: Literal["light", "moderate", "severe"] = "light"
-    altitude_m: PositiveFloat = 10.0
-    airspeed_m_s: PositiveFloat = 5.0
+    altitude_m: Length = 10.0
+    airspeed_m_s: Speed = 5.0
 
 
 class Wind(_Model):
-    steady_ned: Vec3 = (0.0, 0.0, 0.0)
+    steady_ned: WindVector = (0.0, 0.0, 0.0)
     gusts: list[Gust] = Field(default_factory=list)
     turbulence: Turbulence | None = None
 
@@ -115,26 +180,31 @@ class Wind(_Model):
 class Disturbance(_Model):
     """Expressions of t (s): force in NED (N), torque in FRD (N·m)."""
 
-    force_ned: tuple[str | float, str | float, str | float] = (0.0, 0.0, 0.0)
-    torque_frd: tuple[str | float, str | float, str | float] = (0.0, 0.0, 0.0)
+    force_ned: tuple[ExpressionOrNumber, ExpressionOrNumber, ExpressionOrNumber] = (0.0, 0.0, 0.0)
+    torque_frd: tuple[ExpressionOrNumber, ExpressionOrNumber, ExpressionOrNumber] = (0.0, 0.0, 0.0)
 
     @field_validator("force_ned", "torque_frd")
     @classmethod
     def _compiles(cls, value: tuple[str | float, ...]) -> tuple[str | float, ...]:
+        """Refused as the file loads: syntax, names, length and depth, failure at t = 0."""
         for item in value:
             compile_expression(item)
         return value
 
+    def functions(self, name: Literal["force_ned", "torque_frd"]) -> list[Callable[[float], float]]:
+        """The three components of `name` as functions of t whose errors name their field."""
+        return [compile_expression(item, f"disturbance.{name}.{axis}") for axis, item in enumerate(getattr(self, name))]
+
 
 class PayloadStep(_Model):
-    t_s: float = Field(ge=0)
-    mass_kg: float = Field(ge=0)
+    t_s: MissionTime
+    mass_kg: Mass
 
 
 class MotorFault(_Model):
     motor: int = Field(ge=1, le=4)
-    start_s: float = Field(ge=0)
-    end_s: float = math.inf
+    start_s: MissionTime
+    end_s: UntilEnd = math.inf
     health: float = Field(ge=0, le=1, description="thrust multiplier while the fault lasts")
 
 
@@ -144,8 +214,8 @@ class LinkFault(_Model):
 
     kind: Literal["loss", "latency", "corruption", "outage"]
     direction: Literal["to_board", "from_board", "both"] = "both"
-    start_s: float = Field(0.0, ge=0)
-    end_s: float = math.inf
+    start_s: MissionTime = 0.0
+    end_s: UntilEnd = math.inf
     probability: float = Field(0.0, ge=0, le=1, description="loss: chance that a frame starts a loss burst")
     burst_frames: int = Field(1, ge=1, description="loss: frames lost together")
     delay_ms: float = Field(0.0, ge=0, description="latency")
@@ -159,8 +229,6 @@ class LinkFault(_Model):
         if needed <= 0:
             field = {"loss": "probability", "latency": "delay_ms", "corruption": "byte_error_rate"}[self.kind]
             raise ValueError(f"a {self.kind} fault needs {field} > 0")
-        if self.end_s <= self.start_s:
-            raise ValueError(f"end_s ({self.end_s:g}) must be after start_s ({self.start_s:g})")
         return self
 
 
@@ -173,18 +241,26 @@ class Faults(_Model):
 class Board(_Model):
     """Settings for the built-in emulator (ignored by a real board): controller, airframe, gains, ..."""
 
-    controller: Literal["smarc", "smpid", "backstepping"] = "smarc"
+    controller: ControllerName = "smarc"
     airframe: Literal["inspection_quad", "paper_airframe"] | None = None  # default: the vehicle preset
     state_source: Literal["estimator", "truth"] = "estimator"
     config: dict[str, Any] = Field(default_factory=dict, description="any further EmulatorConfig fields")
 
+    @field_validator("config")
+    @classmethod
+    def _is_emulator_config(cls, config: dict[str, Any], info: ValidationInfo) -> dict[str, Any]:
+        """Validated against the emulator's own schema now, not by the emulator after the run has started."""
+        chosen = {key: info.data[key] for key in ("airframe", "controller", "state_source") if info.data.get(key)}
+        build_config({**chosen, **config})
+        return config
+
 
 class Telemetry(_Model):
-    rates_hz: dict[str, PositiveFloat] = Field(default_factory=dict)
+    rates_hz: dict[ChannelName, Annotated[float, Field(gt=0, le=MAX_RATE_HZ)]] = Field(default_factory=dict)
 
 
 class Bounds(_Model):
-    max_error_m: float | tuple[float, float, float] | None = None
+    max_error_m: ErrorBound | None = None  # m, on all axes or per axis
     max_attitude_error_deg: PositiveFloat | None = None
     min_realtime_factor: PositiveFloat | None = None
 
@@ -193,7 +269,7 @@ class Expect(Bounds):
     """Pass/fail bounds. `px4` replaces any of them when PX4 flies (SITL, HITL rehearsal, a Pixhawk): its
     estimator is not the emulator's, and a bound must follow from what the flying estimator can achieve."""
 
-    settle_s: float = Field(5.0, ge=0)
+    settle_s: MissionTime = 5.0
     px4: Bounds | None = None
 
     def for_board(self, px4: bool) -> Expect:
@@ -202,12 +278,31 @@ class Expect(Bounds):
         return self.model_copy(update=self.px4.model_dump(exclude_unset=True))
 
 
+Loc = tuple[str | int, ...]
+
+
+def _models(model: BaseModel, loc: Loc = ()) -> Iterator[tuple[Loc, BaseModel]]:
+    """Every model inside `model` (itself included), with its location, through fields, lists and tuples."""
+    yield loc, model
+    for name in type(model).model_fields:
+        value = getattr(model, name)
+        items = enumerate(value) if isinstance(value, (list, tuple)) else [(None, value)]
+        for index, item in items:
+            if isinstance(item, BaseModel):
+                yield from _models(item, (*loc, name) if index is None else (*loc, name, index))
+
+
+def _check(loc: Loc, value: Any, reason: str) -> InitErrorDetails:
+    return InitErrorDetails(type=PydanticCustomError(CHECK_ERROR, "{reason}", {"reason": reason}), loc=loc,
+                            input=value)
+
+
 class Scenario(_Model):
-    name: str = Field(min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    name: str = Field(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.-]+$")
     description: str = ""
-    duration_s: PositiveFloat = 30.0
+    duration_s: Duration = 30.0
     rate_hz: float = Field(250.0, ge=50, le=2000)
-    seed: int = 0
+    seed: int = Field(0, ge=0, le=2**63 - 1)
     vehicle: Vehicle = Vehicle()
     home: Home = Home()
     reference: Reference = HoverRef(type="hover")
@@ -220,3 +315,46 @@ class Scenario(_Model):
     telemetry: Telemetry = Telemetry()
     end: Literal["land", "disarm"] = "land"  # after the mission: land then disarm, or disarm where it is
     expect: Expect | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Scenario:
+        """The checks across fields, each a separate error at its own field."""
+        errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors()]
+        if errors:
+            raise ValidationError.from_exception_data(type(self).__name__, errors)
+        return self
+
+    def _timing_errors(self) -> Iterator[InitErrorDetails]:
+        """Every mission-clock time before the end of the mission; every interval ending after its start."""
+        end = self.duration_s
+        for loc, model in _models(self):
+            values = {name: getattr(model, name) for name in type(model).model_fields}
+            for name in MISSION_TIMES:
+                if name in values and values[name] >= end:
+                    yield _check((*loc, name), values[name], f"{name} = {values[name]:g} s is not within the mission "
+                                                             f"(duration_s = {end:g} s); "
+                                                             f"expected a time before {end:g} s")
+            if "start_s" in values and "end_s" in values and values["end_s"] <= values["start_s"]:
+                yield _check((*loc, "end_s"), values["end_s"], f"ends at {values['end_s']:g} s, not after it starts "
+                                                               f"(start_s = {values['start_s']:g} s); "
+                                                               "expected end_s > start_s")
+
+    def _expression_errors(self) -> Iterator[InitErrorDetails]:
+        """Each expression evaluated at the start, the middle and the end of the mission."""
+        times = (0.0, self.duration_s / 2, self.duration_s)
+        for name in ("force_ned", "torque_frd"):
+            for item in getattr(self.disturbance, name):
+                try:
+                    compile_expression(item, sample_times=times)
+                except ExpressionError as exc:
+                    yield _check(("disturbance", name), item, str(exc))
+
+    def _lift_errors(self) -> Iterator[InitErrorDetails]:
+        """The vehicle must lift itself and its heaviest payload with some thrust to spare for control."""
+        payload = max((p.mass_kg for p in self.payload), default=0.0)
+        ratio = self.vehicle.thrust_to_weight(payload)
+        if ratio <= 1:
+            with_payload = f" with its {payload:g} kg payload" if payload else ""
+            yield _check(("vehicle", "thrust_max"), self.vehicle.thrust_max,
+                         f"thrust-to-weight {ratio:.2f}: four rotors cannot lift the vehicle{with_payload}; "
+                         f"expected above 1 (a larger thrust_max or a smaller mass)")

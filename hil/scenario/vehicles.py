@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import math
 
+from plant_fmu.variables import PARAMETER_DEFAULTS
+
+ROTORS = 4
+
 # Rotor aerodynamics of the inspection quad, from RotorPy's AscTec Hummingbird parameter set (Folk, Paulos
 # and Kumar, "RotorPy", 2023: mass 0.5 kg, arm 0.17 m, rotor radius 0.10 m, k_eta = 5.57e-6 N/(rad/s)^2,
 # rotor drag k_d = 1.19e-4 and induced inflow k_z = 2.32e-4 N/((rad/s)(m/s)), taken there from the
@@ -21,7 +25,8 @@ INSPECTION_QUAD_AERO: dict[str, float] = {
     "induced_inflow_coeff": 2.32e-4,
     "translational_lift_coeff": 0.0,
     "flapping_coeff": 0.0,
-    **{f"parasitic_drag_area_{axis}": 2 * c_d / _RHO * _AREA_SCALE for axis, c_d in zip("xyz", _SOURCE_C_D)},
+    **{f"parasitic_drag_area_{axis}": 2 * c_d / _RHO * _AREA_SCALE
+       for axis, c_d in zip("xyz", _SOURCE_C_D, strict=True)},
 }
 # Every aerodynamic term off (the plant as it was before rotor aerodynamics): for comparisons.
 NO_ROTOR_AERO: dict[str, float] = {name: 0.0 for name in INSPECTION_QUAD_AERO if name != "rotor_speed_max"}
@@ -39,3 +44,11 @@ PLANT_PRESETS: dict[str, dict[str, float]] = {
 
 def plant_parameters(preset: str, overrides: dict[str, float]) -> dict[str, float]:
     return {**PLANT_PRESETS[preset], **overrides}
+
+
+def thrust_to_weight(parameters: dict[str, float], payload_kg: float = 0.0) -> float:
+    """All rotors at full command over the weight of airframe and payload (FMU defaults under `parameters`):
+    at 1 or below the vehicle cannot take off, let alone be controlled."""
+    p = {**PARAMETER_DEFAULTS, **parameters}
+    weight = (p["mass"] + payload_kg) * p["g"]
+    return ROTORS * p["thrust_max"] / weight if weight > 0 else math.inf

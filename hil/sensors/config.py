@@ -11,12 +11,14 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-G = 9.80665
+from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
+
+G = STANDARD_GRAVITY_M_S2
 DEG = math.pi / 180.0
 
 
 class _Config(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class ImuConfig(_Config):
@@ -64,10 +66,10 @@ class GpsConfig(_Config):
     satellites: int = Field(12, ge=0, le=60)
 
 
-# Profiles. Sources: Gazebo Classic plugin defaults (protocol reference §4) for px4_sitl;
+# Profiles. Sources: Gazebo Classic plugin defaults (docs/px4_protocol.md §15) for px4_sitl;
 # datasheets for the paper's parts (InvenSense MPU-6000/6050 PS rev 3.4, u-blox NEO-M8N,
 # TE MS5611-01BA03). Where a datasheet gives an uncalibrated figure that a flying PX4
-# calibrates away, the profile uses a calibrated residual; the README lists each choice.
+# calibrates away, the profile uses a calibrated residual; docs/sensors.md lists each choice.
 IMU_PROFILES: dict[str, ImuConfig] = {
     "ideal": ImuConfig(),
     "px4_sitl": ImuConfig(accel_noise_density=0.00637, gyro_noise_density=0.000873,
@@ -106,6 +108,6 @@ GPS_PROFILES: dict[str, GpsConfig] = {
 def resolve(profiles: dict[str, Any], name: str, overrides: dict[str, Any] | None = None) -> Any:
     """A profile by name with field overrides, validated (unknown fields are refused)."""
     if name not in profiles:
-        raise ValueError(f"unknown profile '{name}': expected one of {', '.join(sorted(profiles))}")
+        raise ValueError(f"unknown profile {name!r:.80}: expected one of {', '.join(sorted(profiles))}")
     base = profiles[name]
     return type(base).model_validate({**base.model_dump(), **(overrides or {})})

@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Literal, TypeVar, cast
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 FaultKind = Literal["dropout", "stuck", "bias", "noise"]
 SensorName = Literal["accel", "gyro", "mag", "baro", "gps"]
+Sample = TypeVar("Sample", bound=tuple[float, ...])  # a sensor's output, kept at its own length
 
 
 class SensorFault(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     sensor: SensorName
     kind: FaultKind
@@ -32,18 +33,19 @@ class FaultInjector:
         self._rng = rng
         self._last: tuple[float, ...] | None = None
 
-    def apply(self, t_s: float, value: tuple[float, ...]) -> tuple[float, ...] | None:
-        out = value
+    def apply(self, t_s: float, value: Sample) -> Sample | None:
+        out: tuple[float, ...] = value
         for fault in self.faults:
             if not fault.active(t_s):
                 continue
             if fault.kind == "dropout":
                 return None
             if fault.kind == "stuck" and self._last is not None:
-                return self._last
+                return cast(Sample, self._last)
             if fault.kind == "bias":
                 out = tuple(v + fault.magnitude for v in out)
             elif fault.kind == "noise":
-                out = tuple(v + fault.magnitude * n for v, n in zip(out, self._rng.standard_normal(len(out))))
+                noise = self._rng.standard_normal(len(out))
+                out = tuple(v + fault.magnitude * n for v, n in zip(out, noise, strict=True))
         self._last = out
-        return out
+        return cast(Sample, out)

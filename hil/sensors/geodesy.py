@@ -2,18 +2,20 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import pymap3d
+from pydantic import BaseModel, ConfigDict, Field
+
+MAX_DISTANCE_M = 10_000.0  # from home: a take-off at 1.5 m/s reaches it within two hours
 
 
-@dataclass(frozen=True)
-class Home:
-    """PX4's default SITL home: Zurich Irchel Park, 488 m AMSL."""
+class Home(BaseModel):
+    """The NED origin of a run (the scenario's `home`); by default PX4's SITL home, Zurich Irchel Park."""
 
-    lat_deg: float = 47.397742
-    lon_deg: float = 8.545594
-    alt_msl_m: float = 488.0
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+    lat_deg: float = Field(47.397742, ge=-90, le=90)
+    lon_deg: float = Field(8.545594, ge=-180, le=180)
+    alt_msl_m: float = Field(488.0, ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)
 
 
 def ned_to_geodetic(n: float, e: float, d: float, home: Home) -> tuple[float, float, float]:

@@ -19,8 +19,8 @@ class Gps:
     def __init__(self, config: GpsConfig, home: Home, rng: np.random.Generator) -> None:
         self.config = config
         self.home = home
-        self.period_us = int(round(1e6 / config.rate_hz))
-        self.delay_us = int(round(config.delay_s * 1e6))
+        self.period_us = round(1e6 / config.rate_hz)
+        self.delay_us = round(config.delay_s * 1e6)
         c = config
         self._white = np.array((c.pos_white_noise_xy, c.pos_white_noise_xy, c.pos_white_noise_z))
         sigma = np.array((c.pos_markov_sigma_xy, c.pos_markov_sigma_xy, c.pos_markov_sigma_z))

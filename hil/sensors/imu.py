@@ -30,8 +30,8 @@ class Imu:
         n = self._noise.next()
         truth = specific_force_frd.tolist() + rates_frd.tolist()
         bias, sigma, walk, limit, lsb = self.bias, self._sigma, self._walk, self._range, self._lsb
-        out = [t + b + s * w for t, b, s, w in zip(truth, bias, sigma, n)]
-        self.bias = [b + k * w for b, k, w in zip(bias, walk, n[6:])]
-        out = [min(max(v, -r), r) for v, r in zip(out, limit)]
-        out = [round(v / q) * q if q > 0 else v for v, q in zip(out, lsb)]
+        out = [t + b + s * w for t, b, s, w in zip(truth, bias, sigma, n[:6], strict=True)]
+        self.bias = [b + k * w for b, k, w in zip(bias, walk, n[6:], strict=True)]
+        out = [min(max(v, -r), r) for v, r in zip(out, limit, strict=True)]
+        out = [round(v / q) * q if q > 0 else v for v, q in zip(out, lsb, strict=True)]
         return (out[0], out[1], out[2]), (out[3], out[4], out[5])

@@ -17,12 +17,12 @@ NANOTESLA = 1e-9
 
 def earth_field_ned(config: MagConfig, home: Home) -> np.ndarray:
     """Field vector in NED, tesla: from declination/inclination/intensity if all are given, else WMM."""
-    stated = (config.declination_deg, config.inclination_deg, config.intensity_t)
-    if all(v is not None for v in stated):
-        dec, inc, total = math.radians(stated[0]), math.radians(stated[1]), stated[2]
+    dec_deg, inc_deg, total = config.declination_deg, config.inclination_deg, config.intensity_t
+    if dec_deg is not None and inc_deg is not None and total is not None:
+        dec, inc = math.radians(dec_deg), math.radians(inc_deg)
         horizontal = total * math.cos(inc)
         return np.array((horizontal * math.cos(dec), horizontal * math.sin(dec), total * math.sin(inc)))
-    if any(v is not None for v in stated):
+    if any(v is not None for v in (dec_deg, inc_deg, total)):
         raise ValueError("mag: give declination_deg, inclination_deg and intensity_t together, or none")
     result = GeoMag().calculate(glat=home.lat_deg, glon=home.lon_deg, alt=home.alt_msl_m / 1000.0,
                                 time=config.epoch_year, allow_date_outside_lifespan=True)

@@ -5,11 +5,17 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
 from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
 from hil.sensors.baro import Barometer, isa_altitude_m
-from hil.sensors.config import BARO_PROFILES, GPS_PROFILES, IMU_PROFILES, MAG_PROFILES, resolve
+from hil.sensors.config import (
+    BARO_PROFILES,
+    GPS_PROFILES,
+    IMU_PROFILES,
+    MAG_PROFILES,
+    resolve,
+)
 from hil.sensors.faults import FaultInjector, SensorFault
 from hil.sensors.geodesy import Home
 from hil.sensors.gps import Gps
@@ -31,6 +37,10 @@ class SensorChoice(BaseModel):
         return dict(self.model_extra or {})
 
 
+PROFILES: dict[str, dict[str, Any]] = {"imu": IMU_PROFILES, "mag": MAG_PROFILES, "baro": BARO_PROFILES,
+                                       "gps": GPS_PROFILES}
+
+
 class SensorsConfig(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
     imu: SensorChoice = SensorChoice()
@@ -39,12 +49,20 @@ class SensorsConfig(BaseModel):
     gps: SensorChoice = SensorChoice()
     faults: list[SensorFault] = Field(default_factory=list)
 
+    @field_validator("imu", "mag", "baro", "gps")
+    @classmethod
+    def _resolves(cls, choice: SensorChoice, info: ValidationInfo) -> SensorChoice:
+        """The profile exists and its overrides are valid fields and values: found when the scenario loads,
+        not when the suite is built at the start of a run (errors keep their field: sensors.gps.rate_hz)."""
+        resolve(PROFILES[str(info.field_name)], choice.profile, choice.overrides)
+        return choice
+
 
 class _Schedule:
     """A fixed-rate trigger on the bench clock."""
 
     def __init__(self, rate_hz: float) -> None:
-        self.period_us = int(round(1e6 / rate_hz))
+        self.period_us = round(1e6 / rate_hz)
         self._next_us: int | None = None
 
     def due(self, t_us: int) -> bool:
@@ -72,7 +90,7 @@ class SensorSuite:
         fault_rngs = fault_rng.spawn(5)
         self._faults = {
             name: FaultInjector([f for f in config.faults if f.sensor == name], r)
-            for name, r in zip(("accel", "gyro", "mag", "baro", "gps"), fault_rngs)
+            for name, r in zip(("accel", "gyro", "mag", "baro", "gps"), fault_rngs, strict=True)
         }
         self._has_faults = bool(config.faults)
 
@@ -86,19 +104,19 @@ class SensorSuite:
         gps = self.gps.step(t_us, truth.pos_ned, truth.vel_ned)
         if self._has_faults:
             when = t_us * 1e-6 if fault_time_s is None else fault_time_s
-            accel, gyro, mag, baro, gps = self._apply_faults(when, accel, gyro, mag, baro, gps)
+            faulted_accel, faulted_gyro, mag, baro, gps = self._apply_faults(when, accel, gyro, mag, baro, gps)
+            return SensorReadings(t_us=t_us, accel_frd=faulted_accel, gyro_frd=faulted_gyro, mag_frd_t=mag,
+                                  baro=baro), gps
         return SensorReadings(t_us=t_us, accel_frd=accel, gyro_frd=gyro, mag_frd_t=mag, baro=baro), gps
 
     def _apply_faults(self, t_s: float, accel: Vec3, gyro: Vec3, mag: Vec3 | None, baro: Baro | None,
                       gps: GpsFix | None) -> tuple[Vec3 | None, Vec3 | None, Vec3 | None, Baro | None, GpsFix | None]:
-        f = self._faults
-        accel = f["accel"].apply(t_s, accel)
-        gyro = f["gyro"].apply(t_s, gyro)
-        if mag is not None:
-            mag = f["mag"].apply(t_s, mag)
+        f = self._faults  # in this order: the injectors may share one random stream
+        faulted_accel, faulted_gyro = f["accel"].apply(t_s, accel), f["gyro"].apply(t_s, gyro)
+        faulted_mag = None if mag is None else f["mag"].apply(t_s, mag)
         if baro is not None:
             p = f["baro"].apply(t_s, (baro.pressure_pa,))
             baro = None if p is None else Baro(p[0], baro.temperature_degc, isa_altitude_m(p[0]))
         if gps is not None and f["gps"].apply(t_s, (0.0,)) is None:  # a GPS fault can only drop fixes
             gps = None
-        return accel, gyro, mag, baro, gps
+        return faulted_accel, faulted_gyro, faulted_mag, baro, gps

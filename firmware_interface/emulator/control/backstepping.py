@@ -9,9 +9,10 @@ No integral, no estimate of mass or disturbance: that is the point of the compar
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from firmware_interface.emulator.config import BacksteppingGains
 from firmware_interface.emulator.control.base import (
     E3,
     ControlOutput,
@@ -24,7 +25,17 @@ from firmware_interface.emulator.control.base import (
     collective_thrust,
 )
 from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
+from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
 from firmware_interface.emulator.geometry import coriolis_matrix, inertia_matrix_euler
+
+
+class BacksteppingGains(ControllerGains):
+    k1: float = 2.0
+    k2: float = 6.0
+    k3: float = 30.0
+    k4: float = 30.0
+    differentiator_bandwidth: float = 100.0
+    max_tilt: float = math.radians(35)
 
 
 class Backstepping:
@@ -55,6 +66,11 @@ class Backstepping:
         a2 = eta_dot - (eta_s_dot - k.k3 * a1)
         eta_ddot = eta_s_ddot - k.k3 * (a2 - k.k3 * a1) - a1 - k.k4 * a2
         inertia = self.nominal.inertia
-        tau = inertia_matrix_euler(inertia, state.eta) @ eta_ddot + coriolis_matrix(inertia, state.eta, eta_dot) @ eta_dot
+        tau = (inertia_matrix_euler(inertia, state.eta) @ eta_ddot
+               + coriolis_matrix(inertia, state.eta, eta_dot) @ eta_dot)
         internals = {"e2_x": e2[0], "e2_y": e2[1], "e2_z": e2[2], "thrust_n": thrust}
         return ControlOutput(thrust, body_torque(tau, state.eta), eta_cmd, internals)
+
+
+PLUGIN = ControllerPlugin(Backstepping, BacksteppingGains, param_prefix="BS",
+                          runtime_gains=("k1", "k2", "k3", "k4"))

@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from firmware_interface.emulator.geometry import body_from_euler_torque, euler_rates, wrap_pi
+from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
 
 E3 = np.array((0.0, 0.0, 1.0))
 
@@ -49,8 +50,11 @@ class ControlOutput:
 
 
 class Controller(Protocol):
-    name: str
-    internal_keys: tuple[str, ...]  # the order of `internals` in DEBUG_FLOAT_ARRAY
+    @property
+    def name(self) -> str: ...  # read-only members: a class attribute of each controller satisfies them
+
+    @property
+    def internal_keys(self) -> tuple[str, ...]: ...  # the order of `internals` in DEBUG_FLOAT_ARRAY
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
         """`adapt=False` holds adaptation and integrators (on the ground, before lift-off)."""
@@ -65,7 +69,7 @@ class Nominal:
 
     mass: float
     inertia: np.ndarray  # Ixx, Iyy, Izz
-    g: float = 9.80665
+    g: float = STANDARD_GRAVITY_M_S2
 
 
 def attitude_from_force(force_ned: np.ndarray, yaw: float, max_tilt: float,

@@ -13,7 +13,10 @@ With u_s = −u1·R·e3 the Lyapunov argument of the paper carries over unchange
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from pydantic import Field
 
 from firmware_interface.emulator.control.attitude import SlidingModeAttitude
 from firmware_interface.emulator.control.base import (
@@ -25,7 +28,31 @@ from firmware_interface.emulator.control.base import (
     attitude_from_force,
     collective_thrust,
 )
-from firmware_interface.emulator.config import SmarcGains
+from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
+
+
+class SmarcGains(ControllerGains):
+    """Defaults: the paper's §4 gains (c1 = 6, λ1 = 2, γ1 = 0.8, γ2 = 0.3, c2 = 8, ε = 0.3, λ2 = 60, φ = 0.3)."""
+
+    c1: float = 6.0
+    lambda1: float = 2.0
+    gamma1: float = 0.8
+    gamma2: float = 0.3
+    c2: float = 8.0
+    epsilon: float = 0.3
+    lambda2: float = 60.0
+    boundary_layer: float = 0.3
+    mass_min: float = Field(0.2, gt=0, description="projection bounds of m̂ (eq. 18)")
+    mass_max: float = Field(8.0, gt=0)
+    mass_initial: float | None = Field(None, description="m̂(0); default the nominal mass")
+    d_max: float = Field(20.0, gt=0, description="bound on each component of d̂_s, N")
+    adaptation_filter_s: float = Field(0.0, ge=0,
+                                       description="low-pass of S1 driving the adaptive laws (0 = the paper's law)")
+    adaptation_deadzone: float = Field(0.0, ge=0, description="no adaptation while |S1| (filtered) is below this, m/s")
+    differentiator_bandwidth: float = Field(100.0, gt=0, description="rad/s")
+    model_scale: float = Field(1.0, gt=0, description="J_s and C_s (eq. 35) are this times the nominal model's: "
+                               "the attitude law's sensitivity to a wrong inertia")
+    max_tilt: float = Field(math.radians(35), gt=0, lt=math.pi / 2)
 
 
 class Smarc:
@@ -36,8 +63,8 @@ class Smarc:
     def __init__(self, nominal: Nominal, gains: SmarcGains) -> None:
         self.nominal = nominal
         self.gains = gains
-        self.attitude = SlidingModeAttitude(nominal.inertia, gains.c2, gains.lambda2, gains.epsilon,
-                                            gains.boundary_layer, gains.differentiator_bandwidth)
+        self.attitude = SlidingModeAttitude(nominal.inertia * gains.model_scale, gains.c2, gains.lambda2,
+                                            gains.epsilon, gains.boundary_layer, gains.differentiator_bandwidth)
         self.reset()
 
     def reset(self) -> None:
@@ -74,3 +101,7 @@ class Smarc:
                      "s2_x": self.attitude.s2[0], "s2_y": self.attitude.s2[1], "s2_z": self.attitude.s2[2],
                      "thrust_n": thrust}
         return ControlOutput(thrust, torque, eta_cmd, internals)
+
+
+PLUGIN = ControllerPlugin(Smarc, SmarcGains, param_prefix="SMARC",
+                          runtime_gains=("c1", "lambda1", "gamma1", "gamma2", "d_max", "mass_min", "mass_max"))

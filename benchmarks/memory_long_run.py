@@ -1,0 +1,59 @@
+"""Resident memory of the bench over a long simulated hover (default 2 h at 250 Hz, lockstep on the
+emulator, recording and Zenoh on): RSS sampled every few seconds; prints growth after the first minute.
+
+Usage: python benchmarks/memory_long_run.py [--hours H]
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+SAMPLE_S = 5.0
+
+
+def rss_mb(pid: int) -> float | None:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    except FileNotFoundError:
+        return None
+    return None
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hours", type=float, default=2.0)
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        scenario = Path(tmp) / "long.yaml"
+        scenario.write_text(f"name: long_hover\nduration_s: {args.hours * 3600:g}\nseed: 3\nend: disarm\n"
+                            "reference: {type: hover, altitude_m: 10}\n"
+                            "wind: {steady_ned: [2, 1, 0], turbulence: {intensity: light}}\n")
+        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", tmp,
+                                  "--no-report", "--no-gcs"], cwd=ROOT, stdout=subprocess.DEVNULL)
+        started, samples = time.monotonic(), []
+        while bench.poll() is None:
+            value = rss_mb(bench.pid)
+            if value is not None:
+                samples.append((time.monotonic() - started, value))
+            time.sleep(SAMPLE_S)
+        run_dir = next(p for p in Path(tmp).iterdir() if p.is_dir())
+        summary = (run_dir / "summary.txt").read_text()
+    after_minute = [mb for t, mb in samples if t >= 60.0]
+    print(summary, end="")
+    print(f"\nbench RSS: {samples[0][1]:.0f} MB at start, {after_minute[0]:.0f} MB after the first minute, "
+          f"{max(after_minute):.0f} MB at most, {after_minute[-1]:.0f} MB at the end "
+          f"({len(samples)} samples over {samples[-1][0]:.0f} s wall)")
+    print(f"growth after the first minute: {max(after_minute) - after_minute[0]:+.1f} MB (target ≤ 20 MB)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,131 @@
+"""Live view in Foxglove: the run served over Foxglove's WebSocket protocol (foxglove-sdk), with the
+recording's channels and schemas, decimated like the Zenoh telemetry.
+
+The SDK queues each client's messages in its own (Rust) threads and drops the oldest when a client is
+slow, so logging from the bench's sink slot never blocks the loop. `bridge_zenoh` serves a run seen on
+Zenoh (another machine's bench) the same way.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Any
+
+import foxglove
+import orjson
+import zenoh
+
+from firmware_interface.geodesy import LocalFrame
+from hil.channels import CHANNEL_MODELS, TOPIC_PREFIX, json_schema, schema_name
+from hil.foxglove_messages import FOXGLOVE_TOPICS, FoxgloveViews
+from hil.frame import StepFrame
+from hil.recorder import frame_messages
+from hil.telemetry import KEY_PREFIX, Decimator, fetch_meta
+from hil.watch import RunFinder
+
+DEFAULT_ADDRESS = "127.0.0.1:8765"
+SCENE_PERIOD_US = 1_000_000  # the scene goes out again each simulated second for clients that join late
+
+
+def parse_address(text: str) -> tuple[str, int]:
+    """HOST:PORT (or just PORT, on loopback) -> (host, port); ValueError with the reason."""
+    host, _, port = text.rpartition(":")
+    if not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"{text!r}: expected HOST:PORT, e.g. {DEFAULT_ADDRESS}")
+    return host or "127.0.0.1", int(port)
+
+
+class FoxgloveServer:
+    """Foxglove WebSocket server with the bench's channels; `publish` takes channel samples."""
+
+    def __init__(self, address: str, local_frame: LocalFrame, start_ns: int, scene: Any = None,
+                 rates_hz: dict[str, float] | None = None, decimate: bool = True) -> None:
+        host, port = parse_address(address)
+        self.context = foxglove.Context()
+        self.server = foxglove.start_server(name="hil-bench", host=host, port=port, context=self.context)
+        self.port = self.server.port
+        self._json = {name: foxglove.Channel(TOPIC_PREFIX + name, message_encoding="json", context=self.context,
+                                             schema=foxglove.Schema(name=schema_name(name), encoding="jsonschema",
+                                                                    data=json_schema(name)))
+                      for name in CHANNEL_MODELS}
+        self._protobuf = {topic: foxglove.Channel(topic, message_encoding="protobuf", context=self.context,
+                                                  schema=kind.get_schema()) for topic, kind in FOXGLOVE_TOPICS.items()}
+        self._decimator = Decimator(rates_hz) if decimate else None
+        self._views = FoxgloveViews(local_frame, start_ns)
+        self._start_ns = start_ns
+        self._scene = scene
+        self._next_scene_us = 0
+        self._lock = threading.Lock()
+
+    def publish(self, t_us: int, samples: list[tuple[str, dict[str, Any]]]) -> None:
+        stamp = self._start_ns + t_us * 1000
+        if self._decimator is not None:
+            samples = [(c, s) for c, s in samples if self._decimator.passes(c, t_us)]
+        with self._lock:
+            for channel, sample in samples:
+                self._json[channel].log(orjson.dumps(sample, option=orjson.OPT_SERIALIZE_NUMPY), log_time=stamp)
+            for topic, message in self._views.messages(samples):
+                self._protobuf[topic].log(message.encode(), log_time=stamp)
+            if self._scene is not None and t_us >= self._next_scene_us:
+                self._next_scene_us = t_us + SCENE_PERIOD_US
+                self._protobuf["foxglove/scene"].log(self._scene.encode(), log_time=stamp)
+
+    def __call__(self, frame: StepFrame) -> None:
+        """The bench sink."""
+        self.publish(frame.t_us, frame_messages(frame))
+
+    def event(self, t_us: int, text: str) -> None:
+        self.publish(t_us, [("events", {"t_us": t_us, "text": text})])
+
+    def close(self) -> None:
+        self.server.stop()
+
+
+def bridge_zenoh(session: zenoh.Session, run_id: str | None, address: str, wait_s: float,
+                 stop: threading.Event) -> str:
+    """Serve the run `run_id` (or the first one seen) from Zenoh to a Foxglove WebSocket until its summary
+    arrives or `stop` is set; returns a one-line reason."""
+    from hil.foxglove_messages import mission_scene
+    from hil.scenario.schema import Scenario
+
+    chosen = run_id or _first_run(session, wait_s)
+    if chosen is None:
+        return f"no run seen on Zenoh within {wait_s:g} s"
+    meta = fetch_meta(session, chosen)
+    if meta is None:
+        return f"run {chosen}: its meta did not answer (has it ended?)"
+    scenario = Scenario.model_validate(meta["scenario"])
+    home = scenario.home
+    start_ns = int(meta.get("start_unix_ns") or time.time_ns())
+    server = FoxgloveServer(address, LocalFrame(home.lat_deg, home.lon_deg, home.alt_msl_m), start_ns,
+                            mission_scene(scenario, start_ns), decimate=False)
+    ended = threading.Event()
+    prefix = f"{KEY_PREFIX}/{chosen}/"
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        channel = str(sample.key_expr)[len(prefix):]
+        if channel == "summary":
+            ended.set()
+        elif channel in CHANNEL_MODELS:
+            data = orjson.loads(sample.payload.to_bytes())
+            server.publish(int(data.get("t_us", 0)), [(channel, data)])
+
+    subscriber = session.declare_subscriber(prefix + "**", on_sample)
+    print(f"hil foxglove: serving run {chosen} on ws://{address.rpartition(':')[0] or '127.0.0.1'}:{server.port}",
+          flush=True)
+    try:
+        while not (ended.is_set() or stop.is_set()):
+            ended.wait(0.2)
+    finally:
+        subscriber.undeclare()
+        server.close()
+    return f"run {chosen} ended" if ended.is_set() else "stopped"
+
+
+def _first_run(session: zenoh.Session, wait_s: float) -> str | None:
+    finder = RunFinder(session)
+    try:
+        return finder.wait_latest(wait_s)
+    finally:
+        finder.close()

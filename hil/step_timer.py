@@ -1,0 +1,23 @@
+"""Where a bench step's wall time goes, per part (the `timing.breakdown_us_per_step` of metrics.json)."""
+
+from __future__ import annotations
+
+import time
+
+
+class StepTimer:
+    """`lap(part)` charges the wall time since the previous lap (or `start`) to `part`."""
+
+    def __init__(self, totals_s: dict[str, float]) -> None:
+        self.totals_s = totals_s
+        self.started = self._last = 0.0
+
+    def start(self) -> float:
+        self.started = self._last = time.perf_counter()
+        return self.started
+
+    def lap(self, part: str) -> float:
+        now = time.perf_counter()
+        self.totals_s[part] += now - self._last
+        self._last = now
+        return now

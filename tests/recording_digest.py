@@ -1,0 +1,87 @@
+"""A recording's content on simulated time, and its digest: what two runs of one scenario and seed share
+bit for bit (the wall-clock start, the timing channel and Foxglove's wall-clock-stamped views aside).
+
+`tests/recording_checksums.json` keeps the digest of every shipped scenario as flown before a refactor, so
+that a change meant to keep behaviour is shown to keep it. Floating point is only reproducible on the
+same numeric platform (CPU features that pick numpy's and libm's code paths, their versions), so the file
+names the platform it was made on. After a deliberate change of flight results, regenerate it with
+`python -m tests.recording_digest` and say in CHANGELOG.md what changed and why.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from mcap.reader import make_reader
+
+ROOT = Path(__file__).resolve().parent.parent
+CHECKSUMS = Path(__file__).with_name("recording_checksums.json")
+NOT_REPRODUCIBLE = {"link_faults": "paced in real time: which frame a wall-clock latency or loss hits "
+                    "depends on the machine's timing, so two runs of it differ"}
+SIMD_FLAGS = ("fma", "avx2", "avx512f", "avx512dq", "avx512bw", "avx512vl")  # what numpy and glibc dispatch on
+
+
+def simulated_content(run_dir: Path) -> list[tuple[str, int, bytes]]:
+    """(topic, log time less the run's wall-clock start in ns, payload) of the bench's own channels."""
+    start_ns = json.loads((run_dir / "meta.json").read_text())["start_unix_ns"]
+    with open(run_dir / "recording.mcap", "rb") as f:
+        return [(channel.topic, message.log_time - start_ns, message.data)
+                for _, channel, message in make_reader(f).iter_messages(log_time_order=True)
+                if channel.topic.startswith("hil/") and channel.topic != "hil/timing"]
+
+
+def simulated_digest(run_dir: Path) -> str:
+    """SHA-256 over `simulated_content`, each field length-prefixed so that no two contents collide."""
+    digest = hashlib.sha256()
+    for topic, t_ns, data in simulated_content(run_dir):
+        for part in (topic.encode(), str(t_ns).encode(), data):
+            digest.update(len(part).to_bytes(8, "little"))
+            digest.update(part)
+    return digest.hexdigest()
+
+
+def numeric_platform() -> dict[str, Any]:
+    """What decides the last bit of a floating-point result here."""
+    try:
+        flags = set(Path("/proc/cpuinfo").read_text().split("flags")[1].split("\n")[0].split())
+    except (OSError, IndexError):
+        flags = set()
+    return {"machine": platform.machine(), "libc": "-".join(platform.libc_ver()), "numpy": np.__version__,
+            "simd": [f for f in SIMD_FLAGS if f in flags]}
+
+
+def shipped_scenarios() -> list[Path]:
+    return sorted((ROOT / "scenarios").glob("*.yaml"))
+
+
+def main() -> int:
+    """Fly every shipped scenario on the emulator and write their digests to CHECKSUMS."""
+    digests = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for scenario in shipped_scenarios():
+            if scenario.stem in NOT_REPRODUCIBLE:
+                continue
+            runs = Path(tmp) / scenario.stem
+            subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
+                            "--no-report", "--no-telemetry", "--no-gcs"], cwd=ROOT, check=True,
+                           stdout=subprocess.DEVNULL)
+            (run_dir,) = runs.iterdir()
+            digests[scenario.stem] = simulated_digest(run_dir)
+            print(f"{scenario.stem}: {digests[scenario.stem]}")
+    revision = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                              text=True).stdout.strip()
+    CHECKSUMS.write_text(json.dumps({"recorded_at_revision": revision, "platform": numeric_platform(),
+                                     "scenarios": digests, "not_reproducible": NOT_REPRODUCIBLE}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

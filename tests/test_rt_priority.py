@@ -1,0 +1,58 @@
+"""A paced run's real-time priority: granted to the bench and the board's process, and given back."""
+
+import os
+import subprocess
+
+import pytest
+
+from hil.rt_priority import FIFO_PRIORITY, frozen_heap, realtime_priority
+
+
+def _may_raise_priority() -> bool:
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
+    except OSError:
+        return False
+    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    return True
+
+
+@pytest.mark.skipif(not _may_raise_priority(), reason="needs root or CAP_SYS_NICE")
+def test_the_bench_and_the_emulator_run_fifo_during_the_flight_and_normal_after():
+    child = subprocess.Popen(["sleep", "30"])
+    try:
+        with realtime_priority([child.pid]) as note:
+            for pid in (0, child.pid):
+                assert os.sched_getscheduler(pid) == os.SCHED_FIFO
+                assert os.sched_getparam(pid).sched_priority == FIFO_PRIORITY
+            assert "SCHED_FIFO" in note and "emulator" in note
+        for pid in (0, child.pid):
+            assert os.sched_getscheduler(pid) == os.SCHED_OTHER
+    finally:
+        child.kill()
+        child.wait()
+
+
+def test_a_board_process_gone_before_the_end_does_not_fail_the_run():
+    child = subprocess.Popen(["true"])
+    child.wait()  # reaped: its pid names no process
+    with realtime_priority([child.pid]) as note:
+        assert note  # either way the run's log says what happened
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER
+
+
+def test_the_heap_is_frozen_for_the_flight_after_collecting_garbage_and_unfrozen_after():
+    import gc
+    import weakref
+
+    class Node:
+        pass
+
+    cycle = Node()
+    cycle.me = cycle  # garbage only a collection frees
+    gone = weakref.ref(cycle)
+    del cycle
+    with frozen_heap():
+        assert gone() is None  # collected before the freeze, not frozen for ever
+        assert gc.get_freeze_count() > 1000  # start-up's objects are out of the collector's reach
+    assert gc.get_freeze_count() == 0

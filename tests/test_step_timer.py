@@ -1,0 +1,23 @@
+"""StepTimer charges each stretch of wall time to one part, and the parts add up to the step."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from hil.step_timer import StepTimer
+
+
+def test_laps_charge_each_stretch_to_its_part_and_add_up_to_the_whole():
+    totals = {"a": 0.0, "b": 0.0}
+    timer = StepTimer(totals)
+    started = timer.start()
+    time.sleep(0.02)
+    timer.lap("a")
+    time.sleep(0.01)
+    end = timer.lap("b")
+    timer.start()
+    timer.lap("a")  # a second step adds to the same totals
+    assert totals["a"] >= 0.02 and totals["b"] >= 0.01
+    assert totals["a"] + totals["b"] == pytest.approx(end - started, abs=1e-3)
