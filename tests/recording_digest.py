@@ -3,9 +3,11 @@ bit for bit (the wall-clock start, the timing channel and Foxglove's wall-clock-
 
 `tests/recording_checksums.json` keeps the digest of every shipped scenario as flown before a refactor, so
 that a change meant to keep behaviour is shown to keep it. Floating point is only reproducible on the
-same numeric platform (CPU features that pick numpy's and libm's code paths, their versions), so the file
-names the platform it was made on. After a deliberate change of flight results, regenerate it with
-`python -m tests.recording_digest` and say in CHANGELOG.md what changed and why.
+same numeric platform (CPU features that pick numpy's and libm's code paths, their versions, and the
+kernels OpenBLAS picked for the CPU model, which `OPENBLAS_CORETYPE` can override), so the file
+keeps one set of digests per platform, each made from a revision whose flights were shown bit for bit
+equal to the earlier set's. After a deliberate change of flight results, regenerate them with
+`python -m tests.recording_digest` on each platform and say in CHANGELOG.md what changed and why.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from typing import Any
 
 import numpy as np
 from mcap.reader import make_reader
+from threadpoolctl import threadpool_info
 
 ROOT = Path(__file__).resolve().parent.parent
 CHECKSUMS = Path(__file__).with_name("recording_checksums.json")
@@ -49,13 +52,22 @@ def simulated_digest(run_dir: Path) -> str:
 
 
 def numeric_platform() -> dict[str, Any]:
-    """What decides the last bit of a floating-point result here."""
+    """What decides the last bit of a floating-point result here: the CPU's vector features, libm, numpy, and
+    the kernel set its BLAS picked for this CPU model (two machines with the same flags can differ in it)."""
     try:
         flags = set(Path("/proc/cpuinfo").read_text().split("flags")[1].split("\n")[0].split())
     except (OSError, IndexError):
         flags = set()
+    blas = [f"{pool['internal_api']} {pool.get('version')} {pool.get('architecture')}" for pool in threadpool_info()
+            if pool["user_api"] == "blas"]
     return {"machine": platform.machine(), "libc": "-".join(platform.libc_ver()), "numpy": np.__version__,
-            "simd": [f for f in SIMD_FLAGS if f in flags]}
+            "simd": [f for f in SIMD_FLAGS if f in flags], "blas": blas}
+
+
+def recorded_here() -> dict[str, Any] | None:
+    """The digests made on this numeric platform, if any."""
+    entries = json.loads(CHECKSUMS.read_text())["platforms"]
+    return next((entry for entry in entries if entry["platform"] == numeric_platform()), None)
 
 
 def shipped_scenarios() -> list[Path]:
@@ -78,8 +90,10 @@ def main() -> int:
             print(f"{scenario.stem}: {digests[scenario.stem]}")
     revision = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
                               text=True).stdout.strip()
-    CHECKSUMS.write_text(json.dumps({"recorded_at_revision": revision, "platform": numeric_platform(),
-                                     "scenarios": digests, "not_reproducible": NOT_REPRODUCIBLE}, indent=1) + "\n")
+    here = {"platform": numeric_platform(), "recorded_at_revision": revision, "scenarios": digests}
+    known = json.loads(CHECKSUMS.read_text())["platforms"] if CHECKSUMS.exists() else []
+    platforms = [entry for entry in known if entry["platform"] != here["platform"]] + [here]
+    CHECKSUMS.write_text(json.dumps({"not_reproducible": NOT_REPRODUCIBLE, "platforms": platforms}, indent=1) + "\n")
     return 0
 
 

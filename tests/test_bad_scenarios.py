@@ -7,6 +7,7 @@ the large and pathological files (50 MB, 1000 levels of nesting, UTF-16, binary,
 
 from __future__ import annotations
 
+import functools
 import subprocess
 import sys
 import time
@@ -19,6 +20,9 @@ pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator)
 
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = sorted((ROOT / "tests" / "data" / "bad_scenarios").glob("*.yaml"))
+# "Within 2 s" is the check's own work: the interpreter's start-up and imports (~1.2 s on an idle 2-core
+# machine, several seconds on a loaded one) are measured in the same session and taken off, so a loaded
+# machine does not fail the file and a bomb (8 s, 28 s, a hang before the bounds) still does.
 LIMIT_S = 2.0
 VALID = "name: made\nduration_s: 30\n"
 
@@ -29,11 +33,23 @@ def expected(path: Path) -> str:
     return first.removeprefix("# expect: ")
 
 
-def check(path: Path) -> tuple[subprocess.CompletedProcess[str], float]:
+def _timed_check(path: Path) -> tuple[subprocess.CompletedProcess[str], float]:
     started = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "hil.cli", "check", str(path)], capture_output=True, text=True,
                             cwd=ROOT, timeout=60, check=False)
     return result, time.perf_counter() - started
+
+
+@functools.cache
+def start_up_s() -> float:
+    """What `hil check` of a small valid file costs here and now (the fastest of three)."""
+    return min(_timed_check(ROOT / "scenarios" / "hover.yaml")[1] for _ in range(3))
+
+
+def check(path: Path) -> tuple[subprocess.CompletedProcess[str], float]:
+    """The result, and the seconds the check took beyond start-up."""
+    result, elapsed = _timed_check(path)
+    return result, elapsed - start_up_s()
 
 
 def assert_refused(path: Path, says: str) -> None:
@@ -44,7 +60,7 @@ def assert_refused(path: Path, says: str) -> None:
     assert 1 <= len(lines) <= 20, result.stderr
     assert all(line.startswith(f"{path}") and len(line) < len(str(path)) + 600 for line in lines), result.stderr
     assert says in result.stderr, f"expected {says!r} in:\n{result.stderr}"
-    assert elapsed < LIMIT_S, f"{path.name}: hil check took {elapsed:.2f} s"
+    assert elapsed < LIMIT_S, f"{path.name}: hil check took {elapsed:.2f} s beyond start-up"
 
 
 def test_the_corpus_covers_every_category():
@@ -119,10 +135,11 @@ def test_hil_run_of_a_bad_scenario_exits_2_without_starting_a_board(tmp_path):
     started = time.perf_counter()
     result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(bad), "--runs", str(runs), "--no-telemetry"],
                             capture_output=True, text=True, cwd=ROOT, timeout=60, check=False)
+    elapsed = time.perf_counter() - started - start_up_s()
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert expected(bad) in result.stderr and "emulator" not in result.stdout + result.stderr
     assert list(runs.iterdir()) == []  # no run directory: nothing was started
-    assert time.perf_counter() - started < LIMIT_S
+    assert elapsed < LIMIT_S
 
 
 def test_checking_a_bad_file_before_a_good_one_names_each_file_with_its_own_result(tmp_path):

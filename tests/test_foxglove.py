@@ -65,12 +65,11 @@ def only_run_dir(runs: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def gust_run(tmp_path_factory) -> Path:
-    runs = tmp_path_factory.mktemp("gust")
-    bench = hil("run", "scenarios/gust.yaml", "--runs", str(runs), "--no-telemetry", "--no-gcs")
-    out, err = bench.communicate(timeout=300)
-    assert bench.returncode == 0, out + err
-    return only_run_dir(runs)
+def gust_run(shipped_flight) -> Path:
+    """The shipped gust.yaml as a user flies it (the flight the shipped-scenario tests judge too)."""
+    result, run_dir = shipped_flight(ROOT / "scenarios" / "gust.yaml")
+    assert result.returncode == 0, result.stdout + result.stderr
+    return run_dir
 
 
 def protobuf_decoder(schema_name: str, file_descriptor_set: bytes):

@@ -9,13 +9,20 @@ import subprocess
 import sys
 import time
 from collections import Counter
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
 
-from tests.recording_digest import CHECKSUMS, numeric_platform, shipped_scenarios, simulated_content, simulated_digest
+from tests.cli_runs import run
+from tests.recording_digest import (
+    CHECKSUMS,
+    numeric_platform,
+    recorded_here,
+    shipped_scenarios,
+    simulated_content,
+    simulated_digest,
+)
 
 pytestmark = pytest.mark.e2e
 ROOT = Path(__file__).resolve().parent.parent
@@ -24,29 +31,9 @@ RECORDED = json.loads(CHECKSUMS.read_text())
 PER_STEP = ("hil/state", "hil/sensors/imu", "hil/actuators", "hil/environment", "hil/timing")
 
 
-def run(scenario: Path, runs: Path, *extra: str, timeout: float = 600) -> tuple[subprocess.CompletedProcess[str], Path]:
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs), *extra],
-                            capture_output=True, text=True, cwd=ROOT, timeout=timeout)
-    dirs = sorted(runs.iterdir())
-    return result, dirs[-1]
-
-
 def read_mcap(path: Path) -> list[tuple[str, int, bytes]]:
     with open(path, "rb") as f:
         return [(ch.topic, msg.log_time, msg.data) for _, ch, msg in make_reader(f).iter_messages()]
-
-
-@pytest.fixture(scope="module")
-def shipped_flight(tmp_path_factory) -> Callable[[Path], tuple[subprocess.CompletedProcess[str], Path]]:
-    """Each shipped scenario flown once (as a user runs it) for the tests that judge it."""
-    flights: dict[Path, tuple[subprocess.CompletedProcess[str], Path]] = {}
-
-    def flight(scenario: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
-        if scenario not in flights:
-            flights[scenario] = run(scenario, tmp_path_factory.mktemp(scenario.stem))
-        return flights[scenario]
-
-    return flight
 
 
 @pytest.mark.parametrize("scenario", SHIPPED, ids=lambda p: p.stem)
@@ -67,11 +54,12 @@ def test_shipped_scenario_flies_on_the_emulator_with_its_expectations_met(scenar
                          ids=lambda p: p.stem)
 def test_shipped_scenario_flies_bit_for_bit_as_before_the_last_refactor(scenario, shipped_flight):
     _, run_dir = shipped_flight(scenario)
-    if RECORDED["platform"] != numeric_platform():
-        pytest.skip(f"{CHECKSUMS.name} was made on {RECORDED['platform']}, this is {numeric_platform()}: floating "
-                    "point differs in the last bit across them (regenerate: python -m tests.recording_digest)")
-    assert simulated_digest(run_dir) == RECORDED["scenarios"][scenario.stem], (
-        f"{scenario.stem} no longer flies bit for bit as at {RECORDED['recorded_at_revision']}")
+    recorded = recorded_here()
+    if recorded is None:
+        pytest.skip(f"{CHECKSUMS.name} has no digests for this numeric platform, {numeric_platform()}: floating "
+                    "point differs in the last bit across platforms (add them: python -m tests.recording_digest)")
+    assert simulated_digest(run_dir) == recorded["scenarios"][scenario.stem], (
+        f"{scenario.stem} no longer flies bit for bit as at {recorded['recorded_at_revision']}")
 
 
 def short_hover(tmp_path: Path, seconds: float = 3.0) -> Path:

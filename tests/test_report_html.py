@@ -81,8 +81,11 @@ def fly(scenario: Path, runs: Path) -> Path:
 
 
 @pytest.fixture(scope="module")
-def gust_run(tmp_path_factory) -> Path:
-    return fly(ROOT / "scenarios" / "gust.yaml", tmp_path_factory.mktemp("gust"))
+def gust_run(shipped_flight) -> Path:
+    """The shipped gust.yaml as a user flies it (the flight the shipped-scenario tests judge too)."""
+    result, run_dir = shipped_flight(ROOT / "scenarios" / "gust.yaml")
+    assert result.returncode == 0, result.stdout + result.stderr
+    return run_dir
 
 
 @pytest.fixture(scope="module")

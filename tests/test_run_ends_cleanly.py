@@ -131,7 +131,8 @@ def _signal_run(tmp_path: Path, signals: list[tuple[float, int]]) -> tuple[int, 
     """Start a run, send each (delay after the emulator started, signal), wait; exit code, run dir, the
     emulator's pid. (--keep-failed: a run stopped before the board spoke keeps its directory too.)"""
     runs = tmp_path / "runs"
-    bench = hil_run(str(hover_file(tmp_path, 30.0)), "--runs", str(runs), "--no-telemetry", "--keep-failed")
+    # a mission far longer than any signal's delay, however fast the machine flies it: the signal ends it
+    bench = hil_run(str(hover_file(tmp_path, 600.0)), "--runs", str(runs), "--no-telemetry", "--keep-failed")
     deadline = time.monotonic() + 60
     while not _children(bench.pid) and time.monotonic() < deadline:
         time.sleep(0.05)

@@ -262,12 +262,3 @@ def test_accelerometer_reads_gravity_rotated_into_the_tilted_body_plus_accelerat
         assert abs(out[o["roll"]]) > 0.2  # clearly tilted (> 11°), and accelerating
         accel, _ = Imu(ImuConfig(), 250.0, np.random.default_rng(0)).sample(force, np.zeros(3))
         assert accel == pytest.approx(tuple(expected), abs=1e-9)
-
-
-def test_tilted_at_rest_the_accelerometer_reads_g_rotated():
-    """Rolled 30° right and at rest: f = Rᵀ(0, 0, -g) = (0, -g sin 30°, -g cos 30°), by hand."""
-    q = quat_from_euler(math.radians(30), 0.0, 0.0)
-    w, x, y, z = q
-    rot_t_e3 = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])  # Rᵀ e3 (third row of R)
-    accel, _ = Imu(ImuConfig(), 250.0, np.random.default_rng(0)).sample(-G * rot_t_e3, np.zeros(3))
-    assert accel == pytest.approx((0.0, -G * 0.5, -G * math.sqrt(3) / 2), abs=1e-12)

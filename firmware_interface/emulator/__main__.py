@@ -8,6 +8,7 @@ import signal
 import sys
 from pathlib import Path
 
+from firmware_interface.airframes import AIRFRAME_NAMES
 from firmware_interface.emulator.config import load_config
 from firmware_interface.emulator.control.registry import CONTROLLERS
 from firmware_interface.emulator.firmware import EmulatedBoard
@@ -21,7 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
         "the paper's controllers."))
     parser.add_argument("--port", required=True, help="serial device or pty path, or tcp:/udp: connection string")
     parser.add_argument("--controller", choices=CONTROLLERS, help="overrides the config file")
-    parser.add_argument("--airframe", choices=("inspection_quad", "paper_airframe"), help="nominal vehicle preset")
+    parser.add_argument("--airframe", choices=AIRFRAME_NAMES, help="nominal vehicle preset")
     parser.add_argument("--state-source", choices=("estimator", "truth"), help="truth = fly on HIL_STATE_QUATERNION")
     parser.add_argument("--config", type=Path, help="YAML file with EmulatorConfig fields")
     return parser

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
+from firmware_interface.airframes import AIRFRAMES, Airframe, AirframeName
 from firmware_interface.emulator.control.registry import PLUGINS, ControllerName
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
 
@@ -21,16 +22,21 @@ class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)  # a NaN gain flies nowhere
 
 
+_QUAD = AIRFRAMES["inspection_quad"]
+
+
 class NominalVehicle(_Model):
-    mass: float = Field(1.0, gt=0)
-    Ixx: float = Field(0.011, gt=0)
-    Iyy: float = Field(0.011, gt=0)
-    Izz: float = Field(0.021, gt=0)
-    arm_length: float = Field(0.25, gt=0)
-    thrust_max: float = Field(5.0, gt=0, description="N per rotor at command 1")
-    thrust_curve_k: float = Field(0.5, ge=0, le=1)
-    yaw_moment_coeff: float = Field(0.016, gt=0)
-    reversible: bool = Field(False, description="rotors take -1..1 (ideal actuators of the paper's simulation)")
+    """The flight code's belief of the vehicle (default: the inspection quad), in the mixer's terms."""
+
+    mass: float = Field(_QUAD.mass_kg, gt=0)
+    Ixx: float = Field(_QUAD.inertia_frd_kg_m2[0], gt=0)
+    Iyy: float = Field(_QUAD.inertia_frd_kg_m2[1], gt=0)
+    Izz: float = Field(_QUAD.inertia_frd_kg_m2[2], gt=0)
+    arm_length: float = Field(_QUAD.arm_length_m, gt=0)
+    thrust_max: float = Field(_QUAD.thrust_max_n, gt=0, description="N per rotor at command 1")
+    thrust_curve_k: float = Field(_QUAD.thrust_curve_k, ge=0, le=1)
+    yaw_moment_coeff: float = Field(_QUAD.yaw_moment_coeff_m, gt=0)
+    reversible: bool = Field(_QUAD.reversible, description="rotors take -1..1 (ideal actuators of the paper)")
     g: float = STANDARD_GRAVITY_M_S2
 
 
@@ -57,7 +63,7 @@ class EstimatorSettings(_Model):
 
 
 class EmulatorConfig(_Model):
-    airframe: str = "inspection_quad"
+    airframe: AirframeName = "inspection_quad"
     controller: ControllerName = "smarc"
     vehicle: NominalVehicle = NominalVehicle()
     gains: Gains = Gains()
@@ -68,8 +74,6 @@ class EmulatorConfig(_Model):
     lockstep: bool = True
 
 
-_PAPER_VEHICLE = {"mass": 1.0, "Ixx": 0.121, "Iyy": 0.121, "Izz": 0.151, "arm_length": 0.5, "thrust_max": 40.0,
-                  "thrust_curve_k": 0.0, "yaw_moment_coeff": 0.05, "reversible": True}
 # The inspection quad has ~1/11 of the paper airframe's inertia and 20 ms rotor lag: the attitude
 # gains are scaled by the inertia ratio and its bandwidth lowered below the rotors' (our choice).
 # It flies on noisy sensors, where the paper's pure gradient law drifts (S1ᵀū_s contains −c1|S1|²,
@@ -81,9 +85,20 @@ _INSPECTION_GAINS = {
               "kp_yaw": 16.0, "kd_yaw": 8.0, "ki_yaw": 2.0},
     "backstepping": {"k3": 10.0, "k4": 14.0, "differentiator_bandwidth": 40.0},
 }
+
+
+def nominal_vehicle(airframe: Airframe) -> dict[str, Any]:
+    """An airframe as NominalVehicle fields (the rotor lag and drag are the plant's, not the mixer's)."""
+    inertia = airframe.inertia_frd_kg_m2
+    return {"mass": airframe.mass_kg, "Ixx": inertia[0], "Iyy": inertia[1], "Izz": inertia[2],
+            "arm_length": airframe.arm_length_m, "thrust_max": airframe.thrust_max_n,
+            "thrust_curve_k": airframe.thrust_curve_k, "yaw_moment_coeff": airframe.yaw_moment_coeff_m,
+            "reversible": airframe.reversible}
+
+
 PRESETS: dict[str, dict[str, Any]] = {
-    "inspection_quad": {"vehicle": {}, "gains": _INSPECTION_GAINS},
-    "paper_airframe": {"vehicle": _PAPER_VEHICLE, "gains": {}},
+    "inspection_quad": {"vehicle": nominal_vehicle(AIRFRAMES["inspection_quad"]), "gains": _INSPECTION_GAINS},
+    "paper_airframe": {"vehicle": nominal_vehicle(AIRFRAMES["paper_airframe"]), "gains": {}},
 }
 
 

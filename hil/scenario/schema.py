@@ -29,6 +29,7 @@ from pydantic import (
 )
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
+from firmware_interface.airframes import AirframeName
 from firmware_interface.emulator.config import build_config
 from firmware_interface.emulator.control.registry import ControllerName
 from hil.channels import CHANNEL_MODELS
@@ -109,7 +110,7 @@ else:
 class Vehicle(_VehicleParameters):
     """A plant preset plus overrides of any FMU parameter (mass, Ixx, thrust_max, ...)."""
 
-    preset: Literal["inspection_quad", "paper_airframe"] = "inspection_quad"
+    preset: AirframeName = "inspection_quad"
 
     @property
     def overrides(self) -> dict[str, float]:
@@ -242,7 +243,7 @@ class Board(_Model):
     """Settings for the built-in emulator (ignored by a real board): controller, airframe, gains, ..."""
 
     controller: ControllerName = "smarc"
-    airframe: Literal["inspection_quad", "paper_airframe"] | None = None  # default: the vehicle preset
+    airframe: AirframeName | None = None  # default: the vehicle preset
     state_source: Literal["estimator", "truth"] = "estimator"
     config: dict[str, Any] = Field(default_factory=dict, description="any further EmulatorConfig fields")
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from firmware_interface.airframes import AIRFRAMES, Airframe
 from plant_fmu.variables import PARAMETER_DEFAULTS
 
 ROTORS = 4
@@ -31,14 +32,22 @@ INSPECTION_QUAD_AERO: dict[str, float] = {
 # Every aerodynamic term off (the plant as it was before rotor aerodynamics): for comparisons.
 NO_ROTOR_AERO: dict[str, float] = {name: 0.0 for name in INSPECTION_QUAD_AERO if name != "rotor_speed_max"}
 
-# The FMU's defaults are the inspection quad without rotor aerodynamics. The paper's §4 airframe: arm 0.5 m,
-# Ixx = Iyy = 0.121, Izz = 0.151 kg·m², 1 kg; "ideal motors": no lag, linear, reversible, 40 N each (sized for
-# 5 kg), no drag — the paper applies thrust and torque directly and models no aerodynamic effect.
+
+
+def fmu_parameters(airframe: Airframe) -> dict[str, float]:
+    """An airframe in the FMU's parameter names and units."""
+    inertia, drag = airframe.inertia_frd_kg_m2, airframe.drag_coeff_frd_n_s_m
+    return {"mass": airframe.mass_kg, "Ixx": inertia[0], "Iyy": inertia[1], "Izz": inertia[2],
+            "arm_length": airframe.arm_length_m, "thrust_max": airframe.thrust_max_n,
+            "thrust_curve_k": airframe.thrust_curve_k, "motor_tau": airframe.motor_tau_s,
+            "rotor_reversible": float(airframe.reversible), "yaw_moment_coeff": airframe.yaw_moment_coeff_m,
+            "drag_coeff_x": drag[0], "drag_coeff_y": drag[1], "drag_coeff_z": drag[2]}
+
+
+# The inspection quad flies RotorPy's rotor aerodynamics; the paper airframe none (its model has none).
 PLANT_PRESETS: dict[str, dict[str, float]] = {
-    "inspection_quad": INSPECTION_QUAD_AERO,
-    "paper_airframe": {"mass": 1.0, "Ixx": 0.121, "Iyy": 0.121, "Izz": 0.151, "arm_length": 0.5,
-                       "thrust_max": 40.0, "thrust_curve_k": 0.0, "motor_tau": 0.0, "rotor_reversible": 1.0,
-                       "yaw_moment_coeff": 0.05, "drag_coeff_x": 0.0, "drag_coeff_y": 0.0, "drag_coeff_z": 0.0},
+    "inspection_quad": {**fmu_parameters(AIRFRAMES["inspection_quad"]), **INSPECTION_QUAD_AERO},
+    "paper_airframe": fmu_parameters(AIRFRAMES["paper_airframe"]),
 }
 
 
