@@ -26,7 +26,6 @@ from pymavlink.dialects.v20.common import (
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, BoardError, BoardKind, Request
 from firmware_interface.board_messages import decode_board_message
-from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import LinkError, Message
 from firmware_interface.link.faults import FaultSpec, LinkFaults
 from hil.connect import BoardHandle
@@ -112,7 +111,6 @@ class Bench:
         self.dt_us = round(1e6 / scenario.rate_hz)  # the bench's clock is integer µs; the plant's step follows it
         self.dt = self.dt_us / 1e6  # (equal to 1 / rate_hz whenever the rate divides 1 MHz, as every shipped one)
         self.home = scenario.home
-        self._local_frame = LocalFrame(self.home.lat_deg, self.home.lon_deg, self.home.alt_msl_m)
         rng = np.random.default_rng(scenario.seed)
         sensor_rng, env_rng = rng.spawn(2)
         sensors = SensorsConfig.model_validate({**scenario.sensors.model_dump(),
@@ -140,7 +138,8 @@ class Bench:
         self._landed_since_s: float | None = None
         self._params_reported = False
         self.board_offset_ned: np.ndarray | None = None  # board local frame - truth, from arming on
-        self.mission_t = -math.inf
+        self._mission_us: int | None = None  # the mission clock, integer µs like the bench's; None before take-off
+        self.mission_t = -math.inf  # the same in seconds, what the reference and the environment are sampled at
         self.internal_error: str | None = None  # the traceback of an error nobody expected
         self.judge = FlightJudge()
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
@@ -234,7 +233,7 @@ class Bench:
                 return
             self._step(reference, self.mission_t)
             if self.phase in FLYING:
-                self.mission_t += self.dt
+                self._advance_mission_clock()
             if self.realtime:
                 next_deadline = self._sleep_until(next_deadline + self.dt)
             if self.progress is not None and time.perf_counter() - last_progress > 0.25:
@@ -242,6 +241,12 @@ class Bench:
                 flown = min(max(self.mission_t + self.plan.takeoff_s, 0.0), total_s)  # take-off and mission
                 self.progress(str(self.phase), self.t_us * 1e-6, flown / total_s,
                               self.t_us * 1e-6 / max(last_progress - self._started, 1e-9))
+
+    def _advance_mission_clock(self) -> None:
+        """One step on the mission clock: counted in integer µs, so it never drifts from the bench's."""
+        assert self._mission_us is not None
+        self._mission_us += self.dt_us
+        self.mission_t = self._mission_us / 1e6
 
     # --- phases: each returns the reference to fly this step (None: no setpoint) ----
     def _last_texts(self, count: int) -> str:
@@ -300,7 +305,8 @@ class Bench:
         ack = self.board.commands.acknowledged(OFFBOARD.command)
         if ack == MAV_RESULT_ACCEPTED:
             self._switch(Phase.TAKEOFF, now_s)
-            self.mission_t = -self.plan.takeoff_s
+            self._mission_us = -round(self.plan.takeoff_s * 1e6)
+            self.mission_t = self._mission_us / 1e6
         elif now_s - self._phase_since_s > OFFBOARD_TIMEOUT_S:
             texts = self._last_texts(2)
             raise RunAborted(f"offboard mode refused (MAV_RESULT {ack}){': ' + texts if texts else ''}", EXIT_BOARD)
@@ -544,7 +550,7 @@ class Bench:
         if self.exact_truth:
             return codec.LocalTruth(self.t_us, tuple(pos.tolist()), tuple(state.vel_ned.tolist()),
                                     tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()))
-        lat, lon, alt = self._local_frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
+        lat, lon, alt = self.home.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
         vel = state.vel_ned
         return codec.GroundTruth(self.t_us, tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()),
                                  lat, lon, alt, tuple(vel.tolist()), tuple(state.specific_force_frd.tolist()),

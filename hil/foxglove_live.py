@@ -98,7 +98,7 @@ def bridge_zenoh(session: zenoh.Session, run_id: str | None, address: str, wait_
     scenario = Scenario.model_validate(meta["scenario"])
     home = scenario.home
     start_ns = int(meta.get("start_unix_ns") or time.time_ns())
-    server = FoxgloveServer(address, LocalFrame(home.lat_deg, home.lon_deg, home.alt_msl_m), start_ns,
+    server = FoxgloveServer(address, home.frame, start_ns,
                             mission_scene(scenario, start_ns), decimate=False)
     ended = threading.Event()
     prefix = f"{KEY_PREFIX}/{chosen}/"

@@ -140,7 +140,7 @@ def _run(scenario: Scenario, options: RunOptions, sinks: list[Sink] | None, prog
             "pacing": "realtime" if options.realtime else "lockstep (realtime for a serial board)"}
     resolved = scenario.model_dump(mode="json")
     home = scenario.home
-    local_frame = LocalFrame(home.lat_deg, home.lon_deg, home.alt_msl_m)
+    local_frame = home.frame
     recorder = Recorder(run_dir, resolved, meta, local_frame, scene=lambda t_ns: mission_scene(scenario, t_ns))
     state = _RunState()
     flight_code = (f"emulator, controller {scenario.board.controller}"

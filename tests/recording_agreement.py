@@ -57,7 +57,7 @@ def main() -> int:
     args = parser.parse_args()
     if not args.shipped:
         dpos, datt, steps = agreement(*args.runs)
-        print(f"{steps} steps: position within {dpos * 1000:.4f} mm, attitude within {datt:.5f} deg")
+        print(f"{steps} steps: position within {dpos:.3g} m, attitude within {datt:.3g} deg")
         return 0
     with tempfile.TemporaryDirectory() as tmp:
         old = Path(tmp) / "old"
@@ -69,8 +69,8 @@ def main() -> int:
                     continue
                 dpos, datt, steps = agreement(_fly(old, scenario, Path(tmp) / f"old-{scenario.stem}"),
                                               _fly(ROOT, scenario, Path(tmp) / f"new-{scenario.stem}"))
-                print(f"{scenario.stem}: {steps} steps, position within {dpos * 1000:.4f} mm, "
-                      f"attitude within {datt:.5f} deg", flush=True)
+                print(f"{scenario.stem}: {steps} steps, position within {dpos:.3g} m, attitude within {datt:.3g} deg",
+                      flush=True)
         finally:
             subprocess.run(["git", "worktree", "remove", "--force", str(old)], cwd=ROOT, check=False)
     return 0
