@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 from pymavlink.dialects.v20 import common
+from run_timing import benchmark_parser
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import BoardKind, BoardSession
@@ -26,6 +27,8 @@ from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 
 G = 9.80665
 CONTROLLERS = ("smarc", "smpid", "backstepping")
+SETTLE = 750  # 3 s: the estimator settles, then the board is armed and flies on every sample
+FRAMES, QUICK_FRAMES = 3000, SETTLE + 50
 
 
 def sensor_frames(n: int) -> list[tuple[bytes, bytes | None]]:
@@ -47,17 +50,16 @@ def in_process(controller: str, frames: list[tuple[bytes, bytes | None]]) -> flo
     board = EmulatedBoard(Link(UdpTransport("127.0.0.1", sink.getsockname()[1], listen=False)),
                           build_config({"controller": controller}))
     decoder = common.MAVLink(None)
-    settle = 750  # 3 s: the estimator settles, then the board is armed and flies on every sample
     times: list[float] = []
     for k, (sensor, gps) in enumerate(frames):
         if gps:
             board.handle(decoder.decode(bytearray(gps)))
-        if k == settle:
+        if k == SETTLE:
             board.setpoint = None
             assert board._arm() == 0
         start = time.perf_counter()
         board.handle(decoder.decode(bytearray(sensor)))
-        if k > settle:
+        if k > SETTLE:
             times.append(time.perf_counter() - start)
     sink.close()
     return statistics.median(times) * 1e6
@@ -74,14 +76,14 @@ def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tup
     for k, (sensor, gps) in enumerate(frames):
         if gps:
             session.link.send_frame(gps)
-        if k == 750:
+        if k == SETTLE:
             session.arm(True, timeout_s=3.0)
         session._awaited_t_us = 4000 * (k + 1)
         start = time.perf_counter()
         session.link.send_frame(sensor)
         while session._awaited_t_us is not None:
             session.poll(1.0)
-        if k > 750:
+        if k > SETTLE:
             times.append(time.perf_counter() - start)
     proc.terminate()
     proc.wait(5)
@@ -91,7 +93,8 @@ def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tup
 
 
 def main() -> None:
-    frames = sensor_frames(3000)
+    args = benchmark_parser(__doc__).parse_args()
+    frames = sensor_frames(QUICK_FRAMES if args.quick else FRAMES)
     print("emulator: HIL_SENSOR in -> HIL_ACTUATOR_CONTROLS out, estimator on px4_sitl-like packets, armed")
     for controller in CONTROLLERS:
         step_us = in_process(controller, frames)

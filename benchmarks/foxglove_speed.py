@@ -1,12 +1,11 @@
 """Real-time factor of `hil run scenarios/gust.yaml` on the emulator serving Foxglove live (a WebSocket
 client subscribed to every channel) against the same run without --foxglove, alternating; medians.
 
-Usage: python benchmarks/foxglove_speed.py [--rounds N]
+Usage: python benchmarks/foxglove_speed.py [--rounds N] [--quick]
 """
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import json
 import os
@@ -21,7 +20,7 @@ import websockets
 from websockets.typing import Subprotocol
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from run_timing import realtime_factor
+from run_timing import benchmark_parser, realtime_factor, scenario_file
 
 SUBPROTOCOLS = [Subprotocol("foxglove.websocket.v1"), Subprotocol("foxglove.sdk.v1")]
 
@@ -64,24 +63,25 @@ class Viewer(threading.Thread):
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = benchmark_parser(__doc__)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
+    rounds = 1 if args.quick else args.rounds
     live, plain, received = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for n in range(args.rounds):
+        gust = scenario_file("gust", args.quick, Path(tmp))
+        for n in range(rounds):
             port = free_port()
             viewer = Viewer(port)
             viewer.start()
-            live.append(realtime_factor("scenarios/gust.yaml", ["--no-gcs", "--foxglove", f"127.0.0.1:{port}"],
-                                        Path(tmp) / f"live{n}"))
+            live.append(realtime_factor(gust, ["--no-gcs", "--foxglove", f"127.0.0.1:{port}"], Path(tmp) / f"live{n}"))
             viewer.done.set()
             received.append(viewer.messages)
-            plain.append(realtime_factor("scenarios/gust.yaml", ["--no-gcs"], Path(tmp) / f"plain{n}"))
+            plain.append(realtime_factor(gust, ["--no-gcs"], Path(tmp) / f"plain{n}"))
             print(f"round {n + 1}: --foxglove {live[-1]:.2f}x ({viewer.messages} messages to the client), "
                   f"without {plain[-1]:.2f}x")
     on, off = statistics.median(live), statistics.median(plain)
-    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {args.rounds} rounds")
+    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {rounds} rounds")
     print(f"--foxglove with a client on every channel {on:.2f}x real time, without {off:.2f}x: ratio {on / off:.3f}")
     return 0
 

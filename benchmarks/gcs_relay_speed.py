@@ -1,12 +1,11 @@
 """Real-time factor of `hil run scenarios/hover.yaml` on the emulator with the ground-station relay on
 (a GCS listening on loopback receives everything) and with --no-gcs, alternating in one run; medians.
 
-Usage: python benchmarks/gcs_relay_speed.py [--rounds N]
+Usage: python benchmarks/gcs_relay_speed.py [--rounds N] [--quick]
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import socket
 import statistics
@@ -16,7 +15,7 @@ import threading
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from run_timing import realtime_factor
+from run_timing import benchmark_parser, realtime_factor, scenario_file
 
 
 class Gcs(threading.Thread):
@@ -41,22 +40,23 @@ class Gcs(threading.Thread):
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = benchmark_parser(__doc__)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
+    rounds = 1 if args.quick else args.rounds
     gcs = Gcs()
     gcs.start()
     relayed, plain = [], []
     with tempfile.TemporaryDirectory() as tmp:
-        for n in range(args.rounds):
+        hover = scenario_file("hover", args.quick, Path(tmp))
+        for n in range(rounds):
             relay = ["--no-telemetry", "--gcs", f"udpout:127.0.0.1:{gcs.port}"]
-            relayed.append(realtime_factor("scenarios/hover.yaml", relay, Path(tmp) / f"gcs{n}"))
-            plain.append(realtime_factor("scenarios/hover.yaml", ["--no-telemetry", "--no-gcs"],
-                                         Path(tmp) / f"plain{n}"))
+            relayed.append(realtime_factor(hover, relay, Path(tmp) / f"gcs{n}"))
+            plain.append(realtime_factor(hover, ["--no-telemetry", "--no-gcs"], Path(tmp) / f"plain{n}"))
             print(f"round {n + 1}: relay on {relayed[-1]:.2f}x, --no-gcs {plain[-1]:.2f}x")
     gcs.stop.set()
     on, off = statistics.median(relayed), statistics.median(plain)
-    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {args.rounds} rounds; {gcs.datagrams} datagrams "
+    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {rounds} rounds; {gcs.datagrams} datagrams "
           "reached the GCS")
     print(f"relay on {on:.2f}x real time, --no-gcs {off:.2f}x: ratio {on / off:.3f}")
     return 0

@@ -11,12 +11,15 @@ from pymavlink.dialects.v20 import common
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from run_timing import benchmark_parser
+
 from firmware_interface import hil_codec as codec
 from firmware_interface.link import FrameScanner
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from tests.noisy_stream import make_noisy_stream
 
-N_FRAMES = 5000
+N_FRAMES, QUICK_FRAMES = 5000, 200
+N_ENCODES, QUICK_ENCODES = 20000, 200
 
 
 def ours(data: bytes) -> tuple[int, float]:
@@ -40,7 +43,7 @@ def pymavlink_robust(data: bytes) -> tuple[int, float]:
     return good, time.perf_counter() - start
 
 
-def encode_costs(n: int = 20000) -> tuple[float, float]:
+def encode_costs(n: int) -> tuple[float, float]:
     readings = codec.SensorReadings(4000, (0.1, -0.2, -9.81), (0.01, 0.02, 0.03), (2e-5, 1e-6, 4e-5),
                                     codec.Baro(95540.0, 11.8, 488.0))
     encoder = FrameEncoder(1, 51)
@@ -57,8 +60,10 @@ def encode_costs(n: int = 20000) -> tuple[float, float]:
 
 
 def main() -> None:
-    clean = make_noisy_stream(N_FRAMES, seed=5, fault_rate=0.0)
-    noisy = make_noisy_stream(N_FRAMES, seed=5, fault_rate=0.3)
+    args = benchmark_parser(__doc__).parse_args()
+    n_frames = QUICK_FRAMES if args.quick else N_FRAMES
+    clean = make_noisy_stream(n_frames, seed=5, fault_rate=0.0)
+    noisy = make_noisy_stream(n_frames, seed=5, fault_rate=0.3)
     print(f"noisy stream: {len(noisy.data)} bytes, {len(noisy.frames)} intact frames, "
           f"faults injected: {dict(noisy.injected)}")
     n_ours, t_ours = ours(noisy.data)
@@ -71,7 +76,7 @@ def main() -> None:
           f"   pymavlink: {t_clean_py / len(clean.frames) * 1e6:5.1f} us/frame")
     print(f"  scan+decode, noisy stream  ours: {t_ours / max(n_ours, 1) * 1e6:5.1f} us/frame"
           f"   pymavlink: {t_py / max(n_py, 1) * 1e6:5.1f} us/frame")
-    ours_us, py_us = encode_costs()
+    ours_us, py_us = encode_costs(QUICK_ENCODES if args.quick else N_ENCODES)
     print(f"  encode HIL_SENSOR (codec + frame)  ours: {ours_us:5.1f} us   pymavlink: {py_us:5.1f} us")
 
 

@@ -19,6 +19,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from run_timing import benchmark_parser, scenario_file  # noqa: E402
+
 from firmware_interface import hil_codec as codec  # noqa: E402
 from firmware_interface.link import Link, open_pty_pair  # noqa: E402
 from firmware_interface.link.encoder import FrameEncoder, message_class  # noqa: E402
@@ -27,6 +29,7 @@ from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState  # noqa: E40
 from plant_fmu import Plant  # noqa: E402
 
 STEPS = 5000
+QUICK_STEPS = 250  # 1 s simulated: GPS frames too
 
 
 def echo_board(port: str) -> None:
@@ -64,27 +67,27 @@ def wait_reply(link: Link, t_us: int) -> None:
                 return
 
 
-def kernel_floor() -> float:
+def kernel_floor(steps: int) -> float:
     """The pty round trip with no Python on either end (benchmarks/pty_round_trip.c, built with gcc)."""
     with tempfile.TemporaryDirectory() as build:
         exe = Path(build) / "pty_round_trip"
         subprocess.run(["gcc", "-O2", "-o", str(exe), str(ROOT / "benchmarks" / "pty_round_trip.c")], check=True)
-        result = subprocess.run([str(exe), str(STEPS)], check=True, capture_output=True, text=True)
+        result = subprocess.run([str(exe), str(steps)], check=True, capture_output=True, text=True)
         return float(result.stdout) * 1e-6
 
 
-def ping_pong_floor() -> float:
+def ping_pong_floor(steps: int) -> float:
     encoder = FrameEncoder(1, 51)
     with echo_link() as link:
         start = time.perf_counter()
-        for k in range(1, STEPS + 1):
+        for k in range(1, steps + 1):
             link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(
                 codec.SensorReadings(4000 * k, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0)))))
             wait_reply(link, 4000 * k)
-        return (time.perf_counter() - start) / STEPS
+        return (time.perf_counter() - start) / steps
 
 
-def bench_step_floor() -> float:
+def bench_step_floor(steps: int) -> float:
     """Plant + sensors + codec + pty round trip to the echo board, per step."""
     encoder = FrameEncoder(1, 51)
     suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
@@ -95,7 +98,7 @@ def bench_step_floor() -> float:
         force = [o[n] for n in ("specific_force_x", "specific_force_y", "specific_force_z")]
         u = np.zeros(len(plant.INPUT_NAMES))
         start = time.perf_counter()
-        for k in range(1, STEPS + 1):
+        for k in range(1, steps + 1):
             plant.set_inputs(u)
             out = plant.step(0.004)
             readings, gps = suite.step(TrueState(4000 * k, out[pos], out[vel], out[quat], out[rates], out[force]))
@@ -103,22 +106,25 @@ def bench_step_floor() -> float:
                 link.send_frame(encoder.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps)))
             link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings)))
             wait_reply(link, 4000 * k)
-        return (time.perf_counter() - start) / STEPS
+        return (time.perf_counter() - start) / steps
 
 
-def full_run() -> dict:
-    with tempfile.TemporaryDirectory() as runs:
-        subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(ROOT / "scenarios" / "gust.yaml"),
-                        "--runs", runs], check=True, capture_output=True, cwd=ROOT)
-        run_dir = next(Path(runs).iterdir())
+def full_run(quick: bool) -> dict:
+    with tempfile.TemporaryDirectory() as tmp:
+        gust, runs = scenario_file("gust", quick, Path(tmp)), Path(tmp) / "runs"
+        subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(gust), "--runs", str(runs)],
+                       check=True, capture_output=True, cwd=ROOT)
+        run_dir = next(runs.iterdir())
         return json.loads((run_dir / "metrics.json").read_text())["timing"]
 
 
 def main() -> None:
-    floors = {"kernel pty round trip (C on both ends)": kernel_floor(),
-              "pty ping-pong with a Python echo board": ping_pong_floor(),
-              "bench step (plant, sensors, codec) + echo": bench_step_floor()}
-    timing = full_run()
+    args = benchmark_parser(__doc__).parse_args()
+    steps = QUICK_STEPS if args.quick else STEPS
+    floors = {"kernel pty round trip (C on both ends)": kernel_floor(steps),
+              "pty ping-pong with a Python echo board": ping_pong_floor(steps),
+              "bench step (plant, sensors, codec) + echo": bench_step_floor(steps)}
+    timing = full_run(args.quick)
     print("loop speed, 250 Hz bench steps (4 ms of simulated time each)")
     for label, seconds in floors.items():
         print(f"  floor: {label:42s} {seconds * 1e6:6.1f} us/step -> {0.004 / seconds:6.1f}x real time")

@@ -5,12 +5,11 @@ The minimal simulator is the reference for PX4's own cost: it sends one HIL_SENS
 rest, with a little noise so PX4 does not call its sensors stale) and a HIL_GPS at 10 Hz, waits for
 the HIL_ACTUATOR_CONTROLS that echoes that step's time, and repeats; no plant, no sensor models,
 no recording. Rounds alternate the two so that the machine's load hits both alike; medians are
-printed. Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N]
+printed. Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--quick]
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import statistics
@@ -25,24 +24,26 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from run_timing import benchmark_parser, scenario_file  # noqa: E402
+
 from firmware_interface import hil_codec as codec  # noqa: E402
 from hil.connect import start_px4_sitl  # noqa: E402
 from hil.px4.build import Px4Build, find_build  # noqa: E402
 
 RATE_HZ = 250
-MINIMAL_SIM_S = 60.0
+MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S = 60.0, 5.0
 GPS_EVERY = RATE_HZ // 10
 HOME = (47.397742, 8.545594, 488.0)
 MAG_FRD_T = (2.16e-5, 0.13e-5, 4.28e-5)  # roughly the earth field at PX4's default home, vehicle facing north
 
 
-def minimal_simulator(build: Px4Build, scratch: Path) -> float:
-    """PX4 SITL stepped by the simplest simulator there is; returns simulated s per wall s."""
+def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> float:
+    """PX4 SITL stepped by the simplest simulator there is for `sim_s`; returns simulated s per wall s."""
     handle = start_px4_sitl(build, scratch, watchdog_s=2.0)
     session = handle.session
     rng = np.random.default_rng(1)
     dt_us = 1_000_000 // RATE_HZ
-    steps = int(MINIMAL_SIM_S * RATE_HZ)
+    steps = int(sim_s * RATE_HZ)
     try:
         t_us = 0
         started = None
@@ -66,10 +67,11 @@ def minimal_simulator(build: Px4Build, scratch: Path) -> float:
         handle.close()
 
 
-def bench_hover(build: Px4Build, scratch: Path) -> dict:
-    """`hil run scenarios/hover.yaml --px4 DIR` as a user runs it (telemetry on); its metrics."""
+def bench_hover(build: Px4Build, hover: Path, scratch: Path) -> dict:
+    """`hil run scenarios/hover.yaml --px4 DIR` (`hover`: that file or its --quick copy) as a user runs it
+    (telemetry on); its metrics."""
     runs = scratch / "runs"
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(hover),
                              "--px4", str(build.root), "--runs", str(runs)],
                             capture_output=True, text=True, cwd=ROOT, timeout=600)
     run_dir = next(p for p in runs.iterdir() if p.is_dir())
@@ -80,10 +82,11 @@ def bench_hover(build: Px4Build, scratch: Path) -> dict:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = benchmark_parser(__doc__)
     parser.add_argument("--px4", help="a px4_sitl_default build (default: from HIL_PX4_DIR)")
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
+    rounds = 1 if args.quick else args.rounds
     with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
         if args.px4:
@@ -93,16 +96,18 @@ def main() -> int:
         else:
             print("px4_sitl_speed: give --px4 DIR or set HIL_PX4_DIR (see tests/px4_builds.py)", file=sys.stderr)
             return 2
+        hover = scenario_file("hover", args.quick, scratch)
         minimal, bench, breakdowns = [], [], []
-        for round_no in range(args.rounds):
-            minimal.append(minimal_simulator(build, scratch / f"min{round_no}"))
-            metrics = bench_hover(build, scratch / f"bench{round_no}")
+        for round_no in range(rounds):
+            minimal.append(minimal_simulator(build, scratch / f"min{round_no}",
+                                             QUICK_MINIMAL_SIM_S if args.quick else MINIMAL_SIM_S))
+            metrics = bench_hover(build, hover, scratch / f"bench{round_no}")
             bench.append(metrics["timing"]["realtime_factor"])
             breakdowns.append(metrics["timing"]["breakdown_us_per_step"])
             print(f"round {round_no + 1}: PX4 + minimal simulator {minimal[-1]:.1f}x, "
                   f"hil run hover --px4 {bench[-1]:.1f}x")
     ref, ours = statistics.median(minimal), statistics.median(bench)
-    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {args.rounds} rounds")
+    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {rounds} rounds")
     print(f"{'run':<52} {'real-time factor':>16} {'ratio':>7}")
     print(f"{'PX4 v1.15.4 SITL + minimal simulator':<52} {ref:>15.1f}x {1.0:>7.2f}")
     print(f"{'hil run scenarios/hover.yaml --px4 DIR':<52} {ours:>15.1f}x {ours / ref:>7.2f}")

@@ -1,18 +1,55 @@
-"""Shared by the benchmarks that compare whole `hil run`s: run one, read its real-time factor."""
+"""Shared by the benchmarks: the command line with `--quick` (a smoke run, tests/test_benchmarks_smoke.py),
+the shipped scenarios with a mission of a few seconds for it, and a whole `hil run`'s real-time factor."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
+
+import yaml
+
+from hil.sweep.design import set_path
 
 ROOT = Path(__file__).resolve().parent.parent
+# what --quick changes in a shipped scenario, as a sweep's overrides: a 6 s mission (expect.settle_s, 5 s,
+# must fall inside it) 2 m up, so that take-off and landing take seconds too; the same wind and gusts
+QUICK_OVERRIDES: dict[str, dict[str, Any]] = {
+    "hover": {"duration_s": 6.0, "reference.altitude_m": 2.0},
+    "gust": {"duration_s": 6.0, "reference.altitude_m": 2.0, "wind.gusts[0].start_s": 1.0,
+             "wind.gusts[1].start_s": 3.0},
+}
 
 
-def realtime_factor(scenario: str, extra: list[str], runs: Path) -> float:
+def benchmark_parser(doc: str) -> argparse.ArgumentParser:
+    """The script's parser with `--quick`, so that every benchmark can be run once in seconds to show it
+    still works against the current code."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="smoke run: the smallest sizes (in place of any given) that still print every figure; "
+                             "the figures then mean nothing")
+    return parser
+
+
+def scenario_file(name: str, quick: bool, scratch: Path) -> Path:
+    """scenarios/NAME.yaml, or with `quick` a copy of it written into `scratch` with the overrides above."""
+    shipped = ROOT / "scenarios" / f"{name}.yaml"
+    if not quick:
+        return shipped
+    data = yaml.safe_load(shipped.read_text())
+    for path, value in QUICK_OVERRIDES[name].items():
+        set_path(data, path, value)
+    short = scratch / shipped.name
+    short.write_text(yaml.safe_dump(data, sort_keys=False))
+    return short
+
+
+def realtime_factor(scenario: Path, extra: list[str], runs: Path) -> float:
     """Fly `scenario` once into the empty directory `runs`; the run's own real-time factor."""
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", scenario, "--runs", str(runs), "--no-report", *extra],
+    subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs), "--no-report", *extra],
                    check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
     run_dir = next(p for p in runs.iterdir() if p.is_dir())
     return json.loads((run_dir / "metrics.json").read_text())["timing"]["realtime_factor"]

@@ -11,7 +11,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from run_timing import ROOT, benchmark_parser, scenario_file
+
 SLOW_SUBSCRIBER = """
 import sys, time
 sys.path.insert(0, {root!r})
@@ -46,13 +47,15 @@ def run(scenario: Path, endpoint: str | None) -> float:
 
 
 def main() -> None:
-    scenario = ROOT / "scenarios" / "hover.yaml"
-    alone = run(scenario, None)
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    subscriber = subprocess.Popen([sys.executable, "-c", SLOW_SUBSCRIBER.format(root=str(ROOT), endpoint=endpoint)],
-                                  stdout=subprocess.PIPE, text=True)
-    time.sleep(2.0)
-    loaded = run(scenario, endpoint)
+    args = benchmark_parser(__doc__).parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        scenario = scenario_file("hover", args.quick, Path(tmp))
+        alone = run(scenario, None)
+        endpoint = f"tcp/127.0.0.1:{free_port()}"
+        subscriber = subprocess.Popen([sys.executable, "-c", SLOW_SUBSCRIBER.format(root=str(ROOT), endpoint=endpoint)],
+                                      stdout=subprocess.PIPE, text=True)
+        time.sleep(2.0)
+        loaded = run(scenario, endpoint)
     subscriber.send_signal(2)
     received = subscriber.communicate(timeout=30)[0].strip()
     print("telemetry load, scenarios/hover.yaml on the emulator (lockstep)")
