@@ -26,6 +26,14 @@ from hil.watch import RunFinder
 
 DEFAULT_ADDRESS = "127.0.0.1:8765"
 SCENE_PERIOD_US = 1_000_000  # the scene goes out again each simulated second for clients that join late
+# a live continuous channel at most this often per second of wall time: smooth for a plot or the 3-D view,
+# and the view's cost stays the same at 1× (HITL) and at 7× real time (lockstep), where 50 samples per
+# simulated second would be 350 a second; the recording keeps every step
+MAX_WALL_HZ = 30.0
+# the board's streams (50 Hz from the emulator, faster from PX4) under the same cap; its texts, ACKs,
+# heartbeats and state changes each matter and always pass
+BOARD_STREAM_RATES_HZ = {"board/attitude_target": 50.0, "board/estimates": 50.0, "board/local_position_ned": 50.0,
+                         "board/attitude": 50.0}
 
 
 def parse_address(text: str) -> tuple[str, int]:
@@ -51,7 +59,7 @@ class FoxgloveServer:
                       for name in CHANNEL_MODELS}
         self._protobuf = {topic: foxglove.Channel(topic, message_encoding="protobuf", context=self.context,
                                                   schema=kind.get_schema()) for topic, kind in FOXGLOVE_TOPICS.items()}
-        self._decimator = Decimator(rates_hz) if decimate else None
+        self._decimator = Decimator({**BOARD_STREAM_RATES_HZ, **(rates_hz or {})}, MAX_WALL_HZ) if decimate else None
         self._views = FoxgloveViews(local_frame, start_ns)
         self._start_ns = start_ns
         self._scene = scene

@@ -35,13 +35,19 @@ FLUSH_S = 0.2
 
 class Decimator:
     """Which samples a live view passes on: each continuous channel at its rate (samples per second of
-    simulated time); board messages and events, which are sparse and each matter, all of them."""
+    simulated time); board messages and events, which are sparse and each matter, all of them.
 
-    def __init__(self, rates_hz: dict[str, float] | None = None) -> None:
+    `max_wall_hz` caps a continuous channel in wall-clock time as well, for a view a person watches: in
+    lockstep at 7× real time, 50 samples per simulated second are 350 a second on the screen, which no panel
+    needs but which cost the machine the bench runs on."""
+
+    def __init__(self, rates_hz: dict[str, float] | None = None, max_wall_hz: float | None = None) -> None:
         rates = {**DEFAULT_RATES_HZ, **(rates_hz or {})}
         self._period_us = {c: int(1e6 / r) for c, r in rates.items()}
         self._next_us = dict.fromkeys(rates, 0)
         self._next_link_us = 0
+        self._wall_period_s = 1.0 / max_wall_hz if max_wall_hz else 0.0
+        self._next_wall_s = dict.fromkeys(rates, 0.0)
 
     def passes(self, channel: str, t_us: int) -> bool:
         period = self._period_us.get(channel)
@@ -50,6 +56,11 @@ class Decimator:
         if t_us < self._next_us[channel]:
             return False
         self._next_us[channel] = max(self._next_us[channel] + period, t_us)
+        if self._wall_period_s:
+            now_s = time.monotonic()
+            if now_s < self._next_wall_s[channel]:
+                return False
+            self._next_wall_s[channel] = max(self._next_wall_s[channel] + self._wall_period_s, now_s)
         return True
 
     def link_due(self, t_us: int) -> bool:

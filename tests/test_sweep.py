@@ -125,7 +125,8 @@ def short_monte_carlo(folder: Path) -> Path:
     sweep's figures)."""
     spec = yaml.safe_load((ROOT / "sweeps" / "gust_monte_carlo.yaml").read_text())
     spec["scenario"] = str(ROOT / "scenarios" / "gust.yaml")
-    spec["overrides"] |= {"duration_s": 10, "reference.altitude_m": 5, "wind.gusts": [{**spec["overrides"]["wind.gusts"][0], "start_s": 3}],
+    gust = {**spec["overrides"]["wind.gusts"][0], "start_s": 3}
+    spec["overrides"] |= {"duration_s": 10, "reference.altitude_m": 5, "wind.gusts": [gust],
                           "payload": [{"t_s": 6, "mass_kg": 0.0}]}
     path = folder / "gust_monte_carlo_short.yaml"
     path.write_text(yaml.safe_dump(spec, sort_keys=False))
