@@ -121,7 +121,6 @@ class Bench:
         # the vehicle waits on the ground facing the mission's first heading (no yaw step at take-off)
         parameters = {"init_yaw": self.plan.sample(-self.plan.takeoff_s).yaw,
                       **plant_parameters(scenario.vehicle.preset, scenario.vehicle.overrides)}
-        self.plant = Plant(parameters)
         board.session.reversible_motors = parameters.get("rotor_reversible", 0.0) > 0.5
         self.metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
         self.link_faults = self._inject_link_faults(rng.spawn(1)[0]) if scenario.faults.link else []
@@ -130,7 +129,6 @@ class Bench:
         # the emulator flying on the truth gets it at float precision (ODOMETRY); PX4 SITL gets HIL_STATE_QUATERNION
         self.exact_truth = board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth"
         self.send_truth = board.kind is BoardKind.SITL or self.exact_truth
-        self.state = self.plant.state()  # the true state after the latest step
         self.t_us = 0
         self.phase = Phase.PREFLIGHT
         self._phase_since_s = 0.0
@@ -148,6 +146,12 @@ class Bench:
         self._started = time.perf_counter()
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
         self._timer = StepTimer(self.metrics.breakdown_s)
+        self.plant = Plant(parameters)  # last: from here on `run` closes it, whatever happens
+        try:
+            self.state = self.plant.state()  # the true state after the latest step
+        except BaseException:
+            self.plant.close()
+            raise
 
     def _inject_link_faults(self, rng: np.random.Generator) -> list[LinkFaults]:
         """The scenario's link faults on each link to the board. They are wall-clock effects (a board's

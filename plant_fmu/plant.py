@@ -13,7 +13,7 @@ import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from types import TracebackType
-from typing import Self
+from typing import Any, Self
 
 import numpy as np
 from fmpy import calloc, extract, free, read_model_description
@@ -71,7 +71,18 @@ class Plant:
     ) -> None:
         self.fmu_path = ensure_fmu(fmu_path)
         description = read_model_description(str(self.fmu_path))
-        self._unzip_dir = extract(str(self.fmu_path), tempfile.mkdtemp(prefix="quadrotor-"))
+        self._closed = True  # until the instance exists: close() then only removes the unpacked folder
+        self._unzip_dir = tempfile.mkdtemp(prefix="quadrotor-")
+        try:
+            self._open(description, instance_name, parameters, initial_inputs)
+        except BaseException:  # Ctrl-C or SIGTERM while unpacking or initialising leaves no folder behind
+            self._discard()
+            raise
+
+    def _open(self, description: Any, instance_name: str, parameters: Mapping[str, float] | None,
+              initial_inputs: np.ndarray | None) -> None:
+        """Unpack, instantiate and initialise the FMU (the part of construction that may be cut short)."""
+        extract(str(self.fmu_path), self._unzip_dir)
         self._log: list[str] = []
         self._callbacks = self._make_callbacks()
         self._fmu = FMU2Slave(
@@ -81,6 +92,7 @@ class Plant:
             instanceName=instance_name,
         )
         self._fmu.instantiate(callbacks=self._callbacks)
+        self._closed = False
         self._component = self._fmu.component
         dll = self._fmu.dll
         self._set_real, self._get_real = dll.fmi2SetReal, dll.fmi2GetReal
@@ -96,7 +108,6 @@ class Plant:
         self.input_index = {n: i for i, n in enumerate(INPUT_NAMES)}
         self.output_index = {n: i for i, n in enumerate(REAL_OUTPUT_NAMES)}
         self.t = 0.0
-        self._closed = False
         self._initialize(parameters or {}, initial_inputs)
 
     def _make_callbacks(self) -> fmi2CallbackFunctions:
@@ -184,11 +195,17 @@ class Plant:
         self._initialize(parameters or {}, initial_inputs)
 
     def close(self) -> None:
-        if self._closed:
-            return
-        self._closed = True
-        self._fmu.terminate()
-        self._fmu.freeInstance()
+        if not self._closed:
+            self._closed = True
+            self._fmu.terminate()
+            self._fmu.freeInstance()
+        shutil.rmtree(self._unzip_dir, ignore_errors=True)
+
+    def _discard(self) -> None:
+        """A half-built plant: free the instance if there is one, and remove the unpacked FMU."""
+        if not self._closed:
+            self._closed = True
+            self._fmu.freeInstance()
         shutil.rmtree(self._unzip_dir, ignore_errors=True)
 
     def __enter__(self) -> Self:

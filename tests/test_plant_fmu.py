@@ -5,6 +5,7 @@ from __future__ import annotations
 import resource
 import shutil
 import subprocess
+import tempfile
 import zipfile
 from pathlib import Path
 
@@ -14,7 +15,7 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from plant_fmu import Plant, build
+from plant_fmu import Plant, PlantError, build
 from plant_fmu.build import FmuBuildError, build_fmu, fmi_header_dir
 from plant_fmu.variables import INPUT_NAMES, OUTPUT_NAMES, PARAMETER_NAMES, VR
 
@@ -144,3 +145,15 @@ def test_thousand_instantiate_step_free_cycles_do_not_leak(fmu_path, tmp_path):
     for _ in range(1000):
         cycle()
     assert _rss_mb() - before < 4.0
+
+
+def test_a_plant_that_fails_while_initialising_leaves_no_unpacked_fmu(fmu_path, tmp_path, monkeypatch):
+    """Construction cut short after the FMU is unpacked and instantiated (here by a bad parameter; in a run,
+    by Ctrl-C or SIGTERM) removes the folder and frees the instance."""
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    with pytest.raises(PlantError, match="no_such_parameter"):
+        Plant({"no_such_parameter": 1.0}, fmu_path=fmu_path)
+    assert not list(tmp_path.glob("quadrotor-*"))
+    with Plant(fmu_path=fmu_path):
+        assert len(list(tmp_path.glob("quadrotor-*"))) == 1  # the same place, so the check above can see it
+    assert not list(tmp_path.glob("quadrotor-*"))
