@@ -1,144 +1,141 @@
-"""Real-time factor of `hil run scenarios/gust.yaml` (60 s simulated, lockstep, SMARC on the emulator)
-and where each step's time goes, next to three floors: the kernel's pty round trip (C on both ends),
-a ping-pong over the pty with a Python board that echoes one frame per HIL_SENSOR, and the whole
-bench step with that echo board (no flight code)."""
+"""The bench's speed against PX4's own: one table, every row measured in the same run, ratios to PX4 SITL
+driven by a minimal simulator (the cost of PX4 alone, benchmarks/px4_sitl_speed.py).
+
+Rows: the reference; `hil run scenarios/hover.yaml --px4 DIR`; hover and gust on the emulator (full chain:
+sensors, estimator, SMARC, MCAP at full rate, Zenoh on); the paper's 1 kHz helix per controller; and the
+wall-clock pacing a Pixhawk gets (`--px4-hitl`, PX4's HITL code path on a pty). A round runs them back to
+back; medians of the rounds are printed, with the load average, then where a bench step's time goes.
+Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--quick]
+"""
 
 from __future__ import annotations
 
 import json
+import os
+import statistics
 import subprocess
 import sys
 import tempfile
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
-import numpy as np
+import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+from px4_sitl_speed import MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S, minimal_simulator  # noqa: E402
 from run_timing import benchmark_parser, scenario_file  # noqa: E402
 
-from firmware_interface import hil_codec as codec  # noqa: E402
-from firmware_interface.link import Link, open_pty_pair  # noqa: E402
-from firmware_interface.link.encoder import FrameEncoder, message_class  # noqa: E402
-from firmware_interface.link.transports import SerialTransport  # noqa: E402
-from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState  # noqa: E402
-from plant_fmu import Plant  # noqa: E402
+from hil.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
 
-STEPS = 5000
-QUICK_STEPS = 250  # 1 s simulated: GPS frames too
+CONTROLLERS = ("smarc", "smpid", "backstepping")
+QUICK_HELIX_S = 3.0  # with --quick: 3 s of the helix, without the mass steps (at 10 s and 20 s)
+# the issue's targets (#15): ratio to the reference, real-time factor, pacing p99 in us
+TARGETS = {"gust": 2.0, "px4 hover": 0.9, "helix": 10.0, "pacing p99": 200.0}
 
 
-def echo_board(port: str) -> None:
-    """Answers every HIL_SENSOR with one HIL_ACTUATOR_CONTROLS echoing its time: no flight code."""
-    link = Link(SerialTransport(port))
-    try:
-        while True:
-            for msg in link.receive(1.0):
-                if msg.get_type() == "HIL_SENSOR":
-                    link.send_fields("HIL_ACTUATOR_CONTROLS",
-                                     codec.hil_actuator_controls_fields(msg.time_usec, (0.0,) * 4, False, True))
-    except Exception:
-        return
+def fly(scenario: Path, extra: list[str], runs: Path) -> dict[str, Any]:
+    """One `hil run` as a user types it (telemetry on, no report); its metrics."""
+    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs),
+                             *extra], capture_output=True, text=True, cwd=ROOT, timeout=900)
+    if not runs.is_dir():
+        raise RuntimeError(f"hil run {scenario} {' '.join(extra)} exited {result.returncode}: {result.stderr[-500:]}")
+    run_dir = next(p for p in runs.iterdir() if p.is_dir())
+    metrics: dict[str, Any] = json.loads((run_dir / "metrics.json").read_text())
+    if result.returncode != 0:
+        print(f"  ({scenario.name} {' '.join(extra)} exited {result.returncode}: {metrics.get('reason')})")
+    return metrics
 
 
-@contextmanager
-def echo_link() -> Iterator[Link]:
-    """The bench's end of a pty whose other end is the echo board, in its own process."""
-    pair = open_pty_pair()
-    proc = subprocess.Popen([sys.executable, __file__, "--echo", pair.slave_path])
-    link = Link(pair.master)
-    time.sleep(1.0)
-    pair.release_slave()
-    try:
-        yield link
-    finally:
-        link.close()
-        proc.wait(5)
+def helix_file(quick: bool, scratch: Path) -> Path:
+    shipped = ROOT / "scenarios" / "paper_helix.yaml"
+    if not quick:
+        return shipped
+    data = yaml.safe_load(shipped.read_text())
+    data["duration_s"], data["payload"] = QUICK_HELIX_S, []
+    short = scratch / shipped.name
+    short.write_text(yaml.safe_dump(data, sort_keys=False))
+    return short
 
 
-def wait_reply(link: Link, t_us: int) -> None:
-    while True:
-        for msg in link.receive(1.0):
-            if msg.get_type() == "HIL_ACTUATOR_CONTROLS" and msg.time_usec >= t_us:
-                return
+def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path, quick: bool) -> dict[str, Any]:
+    """Every row once, back to back; real-time factors, the HITL run's pacing, and the bench breakdowns."""
+    rtf: dict[str, float] = {"reference": minimal_simulator(sitl, scratch / "min",
+                                                            QUICK_MINIMAL_SIM_S if quick else MINIMAL_SIM_S)}
+    breakdown: dict[str, dict[str, float]] = {}
+    runs = {"px4 hover": (files["hover"], ["--px4", str(sitl.root)]), "hover": (files["hover"], []),
+            "gust": (files["gust"], [])}
+    runs |= {f"helix {c}": (files["helix"], ["--controller", c]) for c in CONTROLLERS}
+    for name, (scenario, extra) in runs.items():
+        timing = fly(scenario, extra, scratch / name.replace(" ", "_"))["timing"]
+        rtf[name] = timing["realtime_factor"]
+        breakdown[name] = timing["breakdown_us_per_step"]
+    paced = fly(files["hover"], ["--px4-hitl", str(hitl)], scratch / "hitl")["timing"]
+    return {"rtf": rtf, "breakdown": breakdown, "pacing": {"p99": paced["period_jitter_us"]["p99"],
+                                                           "max": paced["period_jitter_us"]["max"],
+                                                           "late": paced["late_steps"]}}
 
 
-def kernel_floor(steps: int) -> float:
-    """The pty round trip with no Python on either end (benchmarks/pty_round_trip.c, built with gcc)."""
-    with tempfile.TemporaryDirectory() as build:
-        exe = Path(build) / "pty_round_trip"
-        subprocess.run(["gcc", "-O2", "-o", str(exe), str(ROOT / "benchmarks" / "pty_round_trip.c")], check=True)
-        result = subprocess.run([str(exe), str(steps)], check=True, capture_output=True, text=True)
-        return float(result.stdout) * 1e-6
+def builds(args: Any, scratch: Path) -> tuple[Px4Build, Path]:
+    root = args.px4 or os.environ.get("HIL_PX4_DIR")
+    if not root:
+        raise Px4SetupError("give --px4 DIR or set HIL_PX4_DIR (a directory with PX4's builds or packages)")
+    sitl = Px4Build.locate(find_build(Path(root), "sitl", scratch), "--px4")
+    return sitl, find_build(Path(root), "hitl", scratch)
 
 
-def ping_pong_floor(steps: int) -> float:
-    encoder = FrameEncoder(1, 51)
-    with echo_link() as link:
-        start = time.perf_counter()
-        for k in range(1, steps + 1):
-            link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(
-                codec.SensorReadings(4000 * k, (0.0, 0.0, -9.8), (0.0, 0.0, 0.0)))))
-            wait_reply(link, 4000 * k)
-        return (time.perf_counter() - start) / steps
+def print_table(rounds: list[dict[str, Any]]) -> None:
+    med = {name: statistics.median(r["rtf"][name] for r in rounds) for name in rounds[0]["rtf"]}
+    ref = med["reference"]
+    labels = {"reference": "PX4 v1.15.4 SITL + minimal simulator (reference)",
+              "px4 hover": "hil run scenarios/hover.yaml --px4 DIR", "hover": "hil run scenarios/hover.yaml (emulator)",
+              "gust": "hil run scenarios/gust.yaml (emulator)"}
+    labels |= {f"helix {c}": f"scenarios/paper_helix.yaml 1 kHz, {c}" for c in CONTROLLERS}
+    print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {len(rounds)} round(s)")
+    print(f"{'run':<52} {'real-time factor':>16} {'ratio':>7}  target")
+    for name, label in labels.items():
+        target = TARGETS.get(name.split(" ")[0] if name.startswith("helix") else name)
+        goal = "" if target is None else (f">= {target:g}x real time" if name.startswith("helix")
+                                          else f">= {target:g}")
+        print(f"{label:<52} {med[name]:>15.1f}x {med[name] / ref:>7.2f}  {goal}")
+    pacing = [r["pacing"] for r in rounds]
+    print(f"{'hil run scenarios/hover.yaml --px4-hitl DIR (250 Hz, wall clock)':<52} period error p99 "
+          f"{statistics.median(p['p99'] for p in pacing):.0f} us (target <= {TARGETS['pacing p99']:g}), "
+          f"max {max(p['max'] for p in pacing):.0f} us, late steps per run {[p['late'] for p in pacing]} (target 0)")
 
 
-def bench_step_floor(steps: int) -> float:
-    """Plant + sensors + codec + pty round trip to the echo board, per step."""
-    encoder = FrameEncoder(1, 51)
-    suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
-    with echo_link() as link, Plant({"init_pos_d": -10.0}) as plant:
-        o = plant.output_index
-        pos, vel = [o[n] for n in ("pos_n", "pos_e", "pos_d")], [o[n] for n in ("vel_n", "vel_e", "vel_d")]
-        quat, rates = [o[n] for n in ("q_w", "q_x", "q_y", "q_z")], [o[n] for n in ("rate_x", "rate_y", "rate_z")]
-        force = [o[n] for n in ("specific_force_x", "specific_force_y", "specific_force_z")]
-        u = np.zeros(len(plant.INPUT_NAMES))
-        start = time.perf_counter()
-        for k in range(1, steps + 1):
-            plant.set_inputs(u)
-            out = plant.step(0.004)
-            readings, gps = suite.step(TrueState(4000 * k, out[pos], out[vel], out[quat], out[rates], out[force]))
-            if gps is not None:
-                link.send_frame(encoder.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps)))
-            link.send_frame(encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings)))
-            wait_reply(link, 4000 * k)
-        return (time.perf_counter() - start) / steps
+def print_breakdowns(rounds: list[dict[str, Any]]) -> None:
+    print("\nwhere a bench step's time goes (us/step, median over rounds):")
+    names = ("px4 hover", "gust", "helix smarc")
+    print(f"  {'part':<24}" + "".join(f"{n:>14}" for n in names))
+    for part in rounds[0]["breakdown"]["gust"]:
+        row = [statistics.median(r["breakdown"][n][part] for r in rounds) for n in names]
+        print(f"  {part:<24}" + "".join(f"{v:>14.1f}" for v in row))
 
 
-def full_run(quick: bool) -> dict:
+def main() -> int:
+    parser = benchmark_parser(__doc__)
+    parser.add_argument("--px4", help="a directory with PX4 builds or packages (default: HIL_PX4_DIR)")
+    parser.add_argument("--rounds", type=int, default=3)
+    args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        gust, runs = scenario_file("gust", quick, Path(tmp)), Path(tmp) / "runs"
-        subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(gust), "--runs", str(runs)],
-                       check=True, capture_output=True, cwd=ROOT)
-        run_dir = next(runs.iterdir())
-        return json.loads((run_dir / "metrics.json").read_text())["timing"]
-
-
-def main() -> None:
-    args = benchmark_parser(__doc__).parse_args()
-    steps = QUICK_STEPS if args.quick else STEPS
-    floors = {"kernel pty round trip (C on both ends)": kernel_floor(steps),
-              "pty ping-pong with a Python echo board": ping_pong_floor(steps),
-              "bench step (plant, sensors, codec) + echo": bench_step_floor(steps)}
-    timing = full_run(args.quick)
-    print("loop speed, 250 Hz bench steps (4 ms of simulated time each)")
-    for label, seconds in floors.items():
-        print(f"  floor: {label:42s} {seconds * 1e6:6.1f} us/step -> {0.004 / seconds:6.1f}x real time")
-    print(f"  gust.yaml, SMARC on the emulator: {timing['sim_s']:.1f} s simulated in {timing['wall_s']:.1f} s "
-          f"-> {timing['realtime_factor']:.2f}x real time")
-    print(f"  sensor -> actuator round trip: p50 {timing['round_trip_us']['p50']:.0f} us, "
-          f"p99 {timing['round_trip_us']['p99']:.0f} us")
-    print("  where a step's time goes (us/step):")
-    for part, us in timing["breakdown_us_per_step"].items():
-        print(f"    {part:20s} {us:7.1f}")
+        scratch = Path(tmp)
+        try:
+            sitl, hitl = builds(args, scratch)
+        except Px4SetupError as exc:
+            print(f"loop_speed: {exc}", file=sys.stderr)
+            return 2
+        files = {"hover": scenario_file("hover", args.quick, scratch), "gust": scenario_file("gust", args.quick, scratch),
+                 "helix": helix_file(args.quick, scratch)}
+        rounds = []
+        for k in range(1 if args.quick else args.rounds):
+            rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick))
+            print(f"round {k + 1}: " + ", ".join(f"{n} {v:.1f}x" for n, v in rounds[-1]["rtf"].items()), flush=True)
+    print_table(rounds)
+    print_breakdowns(rounds)
+    return 0
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 3 and sys.argv[1] == "--echo":
-        echo_board(sys.argv[2])
-    else:
-        main()
+    sys.exit(main())

@@ -8,13 +8,22 @@ simulated time, so a viewer shows the real date; every sample keeps its simulate
 Written incrementally: the MCAP writer emits 1 MiB chunks and the file is flushed with each, so a
 crash leaves everything up to the last chunk readable (`hil recover` rebuilds the index); a normal
 end, Ctrl-C or a lost link close the file properly.
+
+In a paced run (`background`) the MCAP writing runs on its own thread, fed in order through a
+bounded queue: closing a chunk (zstd over 1 MiB, then a flush) takes 5-9 ms, more than a 250 Hz
+step's slack, and on the stepping thread it made a board paced on the wall clock see a late sensor
+frame every ~2.5 s. A lockstep run writes on the stepping thread, after the step's frame is sent
+(there a second thread only competes for the interpreter: -6 % real-time factor, measured).
 """
 
 from __future__ import annotations
 
 import json
 import platform
+import queue
 import subprocess
+import sys
+import threading
 import time
 from collections.abc import Callable
 from datetime import UTC, datetime
@@ -42,6 +51,10 @@ from hil.stop_signals import uninterrupted
 # (about 2.3 s of simulated time at 250 Hz, all channels: ~440 KiB/s) keep that under ~5 MB for a 2-hour run, and
 # are what a crash can lose (the last, unfinished chunk).
 CHUNK_BYTES = 1024 * 1024
+QUEUE_STEPS = 1000  # steps the writer thread may lag behind (4 s at 250 Hz); then the stepping thread waits
+# The writer thread gives the interpreter back at least this often when the stepping thread wants it
+# (Python's default is 5 ms, longer than a step): what a paced step waits at most for the GIL.
+SWITCH_INTERVAL_S = 100e-6
 _JSON_OPTIONS = orjson.OPT_SERIALIZE_NUMPY
 
 
@@ -137,6 +150,10 @@ class Recorder:
         self.closed = False
         if scene is not None:
             self._add_foxglove("foxglove/scene", scene(self.start_ns), self.start_ns)
+        self._queue: queue.Queue[tuple[int, list[tuple[str, dict[str, Any]]]] | None] = queue.Queue(QUEUE_STEPS)
+        self._failure: BaseException | None = None  # what stopped the writer thread, raised on the next write
+        self._thread: threading.Thread | None = None  # started by the first write (see `write_messages`)
+        self.background = False  # write on the writer thread (set for a run paced on the wall clock)
 
     def _register_json(self, name: str) -> int:
         schema = self._writer.register_schema(schema_name(name), "jsonschema", json_schema(name))
@@ -156,13 +173,43 @@ class Recorder:
         self.write_messages(frame.t_us, frame_messages(frame))
 
     def write_messages(self, t_us: int, messages: list[tuple[str, dict[str, Any]]]) -> None:
+        """Write one step's messages, or queue them for the writer thread (in call order either way)."""
+        if self._failure is not None:
+            raise OSError(f"writing {self.dir / 'recording.mcap'} failed: {self._failure}") from self._failure
+        if not self.background:
+            with uninterrupted():  # a stop signal here would leave half a record in the chunk
+                self._write(t_us, messages)
+            return
+        if self._thread is None:
+            self._start_thread()
+        self._queue.put((t_us, messages))
+
+    def _start_thread(self) -> None:
+        """Started from the stepping thread once it flies, so that the writer inherits its scheduling: in a
+        paced run both are SCHED_FIFO, and the writer, holding the interpreter, cannot be kept off the CPU
+        by ordinary work while the step waits for it (a priority inversion that cost 6-8 ms stalls)."""
+        self._switch_interval_s = sys.getswitchinterval()  # restored at finish: a later lockstep run keeps 5 ms
+        sys.setswitchinterval(min(self._switch_interval_s, SWITCH_INTERVAL_S))
+        self._thread = threading.Thread(target=self._write_queued, name="mcap-writer", daemon=True)
+        self._thread.start()
+
+    def _write_queued(self) -> None:
+        """The writer thread: stop signals land on the main thread, so no record here is cut in half."""
+        try:
+            while (item := self._queue.get()) is not None:
+                self._write(*item)
+        except BaseException as exc:  # kept and raised on the stepping thread
+            self._failure = exc
+            while self._queue.get() is not None:  # unblock the stepping thread until finish()
+                pass
+
+    def _write(self, t_us: int, messages: list[tuple[str, dict[str, Any]]]) -> None:
         stamp = self.start_ns + t_us * 1000
         add, channels = self._writer.add_message, self._channels
         encoded = [(channels[channel], orjson.dumps(payload, option=_JSON_OPTIONS)) for channel, payload in messages]
         views = [(self._foxglove[topic], message.encode()) for topic, message in self._views.messages(messages)]
-        with uninterrupted():  # a stop signal here would leave half a record in the chunk
-            for channel_id, data in (*encoded, *views):
-                add(channel_id, stamp, data, stamp)
+        for channel_id, data in (*encoded, *views):
+            add(channel_id, stamp, data, stamp)
         position = self._file.tell()
         if position != self._last_flush_bytes:  # a chunk went out: push it to disk
             self._file.flush()
@@ -172,11 +219,19 @@ class Recorder:
         self.write_messages(t_us, [("events", {"t_us": t_us, "text": text})])
 
     def finish(self, metrics: dict[str, Any], summary: str) -> None:
+        """Metrics and summary first, then the recording's end: a stop signal that arrives meanwhile waits
+        for the queued steps and the file's summary, and is raised once everything is on disk."""
         metrics_text = json.dumps(metrics, indent=2, default=float)
-        if not self.closed:
-            self.closed = True
+        (self.dir / "metrics.json").write_text(metrics_text)
+        (self.dir / "summary.txt").write_text(summary)
+        if self.closed:
+            return
+        self.closed = True
+        with uninterrupted():
+            if self._thread is not None:
+                self._queue.put(None)
+                self._thread.join()
+                sys.setswitchinterval(self._switch_interval_s)
             self._writer.add_metadata("metrics", {"json": metrics_text, "summary": summary})
             self._writer.finish()
             self._file.close()
-        (self.dir / "metrics.json").write_text(metrics_text)
-        (self.dir / "summary.txt").write_text(summary)

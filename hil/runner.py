@@ -217,6 +217,7 @@ def _fly(scenario: Scenario, options: RunOptions, run_dir: Path, recorder: Recor
         events.append(parts.live.event)
     bench = Bench(scenario, handle, options.realtime, all_sinks, progress,
                   on_event=lambda t_us, text: _emit_all(events, t_us, text))
+    recorder.background = bench.realtime  # a chunk's compression must not delay a paced step
     result = bench.run()
     state.reason, state.code, state.metrics = result.reason, result.exit_code, result.metrics
     state.internal_error, state.final_t_us = bench.internal_error, bench.t_us
