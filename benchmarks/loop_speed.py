@@ -105,8 +105,17 @@ def print_table(rounds: list[dict[str, Any]]) -> None:
           f"max {max(p['max'] for p in pacing):.0f} us, late steps per run {[p['late'] for p in pacing]} (target 0)")
 
 
-def print_breakdowns(rounds: list[dict[str, Any]]) -> None:
-    print("\nwhere a bench step's time goes (us/step, median over rounds):")
+def kernel_floor_us(steps: int) -> float:
+    """The pty round trip with no Python on either end (benchmarks/pty_round_trip.c, built with gcc)."""
+    with tempfile.TemporaryDirectory() as build:
+        exe = Path(build) / "pty_round_trip"
+        subprocess.run(["gcc", "-O2", "-o", str(exe), str(ROOT / "benchmarks" / "pty_round_trip.c")], check=True)
+        return float(subprocess.run([str(exe), str(steps)], check=True, capture_output=True, text=True).stdout)
+
+
+def print_breakdowns(rounds: list[dict[str, Any]], floor_us: float) -> None:
+    print(f"\nfloor: a pty round trip between two C processes {floor_us:.1f} us")
+    print("where a bench step's time goes (us/step, median over rounds):")
     names = ("px4 hover", "gust", "helix smarc")
     print(f"  {'part':<24}" + "".join(f"{n:>14}" for n in names))
     for part in rounds[0]["breakdown"]["gust"]:
@@ -126,14 +135,14 @@ def main() -> int:
         except Px4SetupError as exc:
             print(f"loop_speed: {exc}", file=sys.stderr)
             return 2
-        files = {"hover": scenario_file("hover", args.quick, scratch), "gust": scenario_file("gust", args.quick, scratch),
-                 "helix": helix_file(args.quick, scratch)}
+        files = {name: scenario_file(name, args.quick, scratch) for name in ("hover", "gust")}
+        files["helix"] = helix_file(args.quick, scratch)
         rounds = []
         for k in range(1 if args.quick else args.rounds):
             rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick))
             print(f"round {k + 1}: " + ", ".join(f"{n} {v:.1f}x" for n, v in rounds[-1]["rtf"].items()), flush=True)
     print_table(rounds)
-    print_breakdowns(rounds)
+    print_breakdowns(rounds, kernel_floor_us(250 if args.quick else 5000))
     return 0
 
 

@@ -27,10 +27,11 @@ FIGURES: dict[str, tuple[str, ...]] = {
     "link_scan": ("noisy stream:", "faults injected", "frames recovered   ours:", "pymavlink robust parser",
                   "scan+decode, clean stream", "scan+decode, noisy stream", "us/frame",
                   "encode HIL_SENSOR (codec + frame)"),
-    "loop_speed": ("kernel pty round trip (C on both ends)", "pty ping-pong with a Python echo board",
-                   "bench step (plant, sensors, codec) + echo", "us/step ->", "x real time",
-                   "gust.yaml, SMARC on the emulator:", "sensor -> actuator round trip: p50",
-                   "where a step's time goes (us/step):", "wait_for_board"),
+    "loop_speed": ("round 1: reference", "PX4 v1.15.4 SITL + minimal simulator (reference)",
+                   "hil run scenarios/hover.yaml --px4 DIR", "hil run scenarios/hover.yaml (emulator)",
+                   "hil run scenarios/gust.yaml (emulator)", "scenarios/paper_helix.yaml 1 kHz, smarc",
+                   "1 kHz, smpid", "1 kHz, backstepping", "--px4-hitl DIR (250 Hz, wall clock) period error p99",
+                   "late steps per run", "floor: a pty round trip", "where a bench step's time goes", "wait_for_board"),
     "memory_long_run": ("timing:", "real-time factor", "bench RSS:", "MB at start", "MB at most", "MB at the end",
                         "growth after the first", "(target ≤ 20 MB)"),
     "plant_step": ("plant_fmu.Plant, no rotor aerodynamics", "plant_fmu.Plant, inspection quad's aero",
@@ -40,11 +41,11 @@ FIGURES: dict[str, tuple[str, ...]] = {
                        "bench per step (us, median over rounds):", "wait_for_board"),
     "sensors": ("sensor suite, 250 Hz bench", "ideal", "px4_sitl", "paper parts (mpu6050, m8n, ms5611)", "us/step"),
     "sweep_throughput": ("round 1: 1 worker", "samples/min", "samples per sweep, medians of 1 rounds",
-                         "2 workers", ": ratio"),
+                         "2 workers", ": ratio", "bare runs 2 vs 1", "machine ceiling (two bare hil runs"),
     "telemetry_load": ("telemetry load, scenarios/hover.yaml on the emulator", "no subscriber",
                        "a subscriber sleeping 50 ms per sample", "x real time", "samples; ratio"),
 }
-NEEDS_PX4 = {"px4_sitl_speed"}
+NEEDS_PX4 = {"px4_sitl_speed", "loop_speed"}
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.px4) if n in NEEDS_PX4 else n for n in FIGURES])

@@ -44,7 +44,7 @@ def test_a_writer_failure_is_raised_on_the_stepping_thread(tmp_path):
     recorder = Recorder(tmp_path, {"name": "t"}, {}, LocalFrame(47.0, 8.0, 500.0))
     recorder.background = True
     recorder.write_messages(4000, [("no/such/channel", {"t_us": 4000})])  # the writer thread fails on it
-    with pytest.raises(OSError, match="recording.mcap"):
+    with pytest.raises(OSError, match=r"recording\.mcap"):
         for k in range(2, 1000):
             recorder.write_messages(4000 * k, [("actuators", {"t_us": 4000 * k, "motors": [0.0] * 4,
                                                               "armed": False})])
