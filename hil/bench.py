@@ -438,7 +438,7 @@ class Bench:
         slip is a pause both sides see as one late frame."""
         now = time.perf_counter()
         if now > deadline + self.dt:
-            self.metrics.late_steps += 1
+            self.metrics.add_late(self.t_us, now - deadline, self._timer.longest)
         if now > deadline + REALTIME_SLIP_S:
             self.metrics.add_slip(now - deadline)
             deadline = now

@@ -26,6 +26,7 @@ def _window_figures(t: float, mass: float, values: dict[str, float]) -> dict[str
 
 XYZ = ("x", "y", "z")
 RPY = ("roll", "pitch", "yaw")
+LATE_DETAIL = 20  # late steps explained in metrics.json (all are counted)
 
 
 @dataclass
@@ -42,6 +43,7 @@ class MetricsCollector:
     round_trip: LogHistogram = field(default_factory=LogHistogram)
     period_error: LogHistogram = field(default_factory=LogHistogram)  # |step period - nominal|, real time
     late_steps: int = 0
+    late_detail: list[dict[str, Any]] = field(default_factory=list)  # the first LATE_DETAIL late steps, explained
     slips: int = 0  # stalls after which the real-time schedule went on from the late moment
     slipped_s: float = 0.0
     steps: int = 0
@@ -78,6 +80,14 @@ class MetricsCollector:
         if self._last_step_start is not None:
             self.period_error.add(abs(start_s - self._last_step_start - period_s))
         self._last_step_start = start_s
+
+    def add_late(self, t_us: int, behind_s: float, longest: tuple[str, float]) -> None:
+        """A step that started more than a period late, with the longest part of the step before it (a slow
+        part of the bench, or, when that part is short, a stall outside the step: the sleep or the machine)."""
+        self.late_steps += 1
+        if len(self.late_detail) < LATE_DETAIL:
+            self.late_detail.append({"t_s": t_us * 1e-6, "behind_ms": behind_s * 1e3,
+                                     "longest_part": longest[0], "longest_part_ms": longest[1] * 1e3})
 
     def add_slip(self, behind_s: float) -> None:
         self.slips += 1
@@ -119,6 +129,7 @@ class MetricsCollector:
         if realtime and self.period_error.n:
             result["timing"]["period_jitter_us"] = self.period_error.summary(1e6)
             result["timing"]["late_steps"] = self.late_steps
+            result["timing"]["late_steps_detail"] = self.late_detail
             result["timing"]["slips"] = {"count": self.slips, "total_s": self.slipped_s}
         result["link"] = link_counters
         return result

@@ -45,6 +45,7 @@ from hil.channels import (
 )
 from hil.foxglove_messages import FOXGLOVE_TOPICS, FoxgloveViews
 from hil.frame import StepFrame
+from hil.rt_priority import current_fifo_priority, run_just_below
 from hil.stop_signals import uninterrupted
 
 # The writer keeps an index entry per chunk in memory until the file's summary is written: 1 MiB chunks
@@ -185,16 +186,18 @@ class Recorder:
         self._queue.put((t_us, messages))
 
     def _start_thread(self) -> None:
-        """Started from the stepping thread once it flies, so that the writer inherits its scheduling: in a
-        paced run both are SCHED_FIFO, and the writer, holding the interpreter, cannot be kept off the CPU
-        by ordinary work while the step waits for it (a priority inversion that cost 6-8 ms stalls)."""
+        """Started from the stepping thread once it flies, at one real-time priority below it when it has
+        one (`run_just_below`): as an ordinary thread the writer, holding the interpreter, was kept off the
+        CPU by PX4's threads while the step waited for it (a priority inversion: 6-8 ms stalls)."""
         self._switch_interval_s = sys.getswitchinterval()  # restored at finish: a later lockstep run keeps 5 ms
         sys.setswitchinterval(min(self._switch_interval_s, SWITCH_INTERVAL_S))
-        self._thread = threading.Thread(target=self._write_queued, name="mcap-writer", daemon=True)
+        self._thread = threading.Thread(target=self._write_queued, args=(current_fifo_priority(),),
+                                        name="mcap-writer", daemon=True)
         self._thread.start()
 
-    def _write_queued(self) -> None:
+    def _write_queued(self, stepping_priority: int) -> None:
         """The writer thread: stop signals land on the main thread, so no record here is cut in half."""
+        run_just_below(stepping_priority)
         try:
             while (item := self._queue.get()) is not None:
                 self._write(*item)

@@ -39,6 +39,23 @@ def realtime_priority(pids: list[int]) -> Iterator[str]:
                 os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
 
 
+def current_fifo_priority() -> int:
+    """This thread's SCHED_FIFO priority, 0 when it is not real-time."""
+    if os.sched_getscheduler(0) != os.SCHED_FIFO:
+        return 0
+    return os.sched_getparam(0).sched_priority
+
+
+def run_just_below(priority: int) -> None:
+    """Put this thread one SCHED_FIFO priority under `priority` (nothing for 0 or 1). A helper thread of a
+    paced loop (the recording's writer) must stay ahead of ordinary work, or it can be kept off the CPU
+    holding the interpreter the loop waits for; and behind the loop, since at equal FIFO priority a
+    thread keeps its core until it blocks, and the loop's wake-up would wait for it."""
+    if priority > 1:
+        with suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority - 1))
+
+
 @contextmanager
 def frozen_heap() -> Iterator[None]:
     """What start-up built is moved out of the collector's reach for the flight (`gc.freeze`): it lives

@@ -21,3 +21,15 @@ def test_laps_charge_each_stretch_to_its_part_and_add_up_to_the_whole():
     timer.lap("a")  # a second step adds to the same totals
     assert totals["a"] >= 0.02 and totals["b"] >= 0.01
     assert totals["a"] + totals["b"] == pytest.approx(end - started, abs=1e-3)
+
+
+def test_the_longest_part_of_the_step_is_kept_until_the_next_start():
+    timer = StepTimer({"a": 0.0, "b": 0.0})
+    timer.start()
+    timer.lap("a")
+    time.sleep(0.01)
+    timer.lap("b")
+    part, seconds = timer.longest
+    assert part == "b" and seconds >= 0.01
+    timer.start()
+    assert timer.longest == ("", 0.0)
