@@ -25,6 +25,7 @@ from hil.gcs import GcsBridge
 from hil.lifetime import die_with_parent
 from hil.px4 import Px4Build, Px4Process, claim_instance
 from hil.px4.hitl_startup import write_hitl_startup
+from hil.rt_priority import board_on_its_own_core
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
 
@@ -209,6 +210,11 @@ def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     return handle
 
 
+def _hitl_child_setup() -> None:
+    die_with_parent()
+    board_on_its_own_core()
+
+
 def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
     """PX4's HITL code path from `build` (a px4_sitl_nolockstep build) with its HIL link on a pty: the
     bench then flies the same serial path as with a Pixhawk on /dev/ttyACM0."""
@@ -217,7 +223,7 @@ def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     try:
         script = write_hitl_startup(run_dir / "px4-hitl.rcS", pair.slave_path)
         px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
-                         extra_args=("-s", str(script)), preexec=die_with_parent)
+                         extra_args=("-s", str(script)), preexec=_hitl_child_setup)
     except BaseException:
         claim.release()
         pair.master.close()

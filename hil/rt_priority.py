@@ -56,6 +56,16 @@ def run_just_below(priority: int) -> None:
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority - 1))
 
 
+def board_on_its_own_core() -> None:
+    """In a board process started for a wall-clock rehearsal (PX4's HITL code path), before exec: all its
+    threads on the last CPU, leaving the others to the bench. A Pixhawk has a processor of its own, and
+    PX4's SCHED_FIFO threads (priorities 40-99, above the bench's) could otherwise hold both cores of a
+    small machine at once. Nothing changes on a single-CPU machine."""
+    cpus = sorted(os.sched_getaffinity(0))
+    if len(cpus) > 1:
+        os.sched_setaffinity(0, {cpus[-1]})
+
+
 @contextmanager
 def frozen_heap() -> Iterator[None]:
     """What start-up built is moved out of the collector's reach for the flight (`gc.freeze`): it lives

@@ -2,10 +2,11 @@
 
 import os
 import subprocess
+from pathlib import Path
 
 import pytest
 
-from hil.rt_priority import FIFO_PRIORITY, frozen_heap, realtime_priority
+from hil.rt_priority import FIFO_PRIORITY, board_on_its_own_core, frozen_heap, realtime_priority, run_just_below
 
 
 def _may_raise_priority() -> bool:
@@ -56,3 +57,33 @@ def test_the_heap_is_frozen_for_the_flight_after_collecting_garbage_and_unfrozen
         assert gone() is None  # collected before the freeze, not frozen for ever
         assert gc.get_freeze_count() > 1000  # start-up's objects are out of the collector's reach
     assert gc.get_freeze_count() == 0
+
+
+@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="one CPU: the board shares it by necessity")
+def test_a_rehearsal_board_runs_on_the_last_cpu_only_and_the_bench_keeps_all():
+    allowed = sorted(os.sched_getaffinity(0))
+    child = subprocess.Popen(["sleep", "30"], preexec_fn=board_on_its_own_core)  # noqa: PLW1509 - as PX4 is started
+    try:
+        status = Path(f"/proc/{child.pid}/status").read_text()
+        assert f"Cpus_allowed_list:\t{allowed[-1]}\n" in status  # the kernel's own view of the child
+        assert sorted(os.sched_getaffinity(0)) == allowed
+    finally:
+        child.kill()
+        child.wait()
+
+
+@pytest.mark.skipif(not _may_raise_priority(), reason="needs root or CAP_SYS_NICE")
+def test_a_helper_thread_runs_one_fifo_priority_below_the_loop():
+    import threading
+
+    seen: list[tuple[int, int]] = []
+
+    def helper() -> None:
+        run_just_below(FIFO_PRIORITY)
+        seen.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority))
+
+    thread = threading.Thread(target=helper)
+    thread.start()
+    thread.join()
+    assert seen == [(os.SCHED_FIFO, FIFO_PRIORITY - 1)]
+    assert os.sched_getscheduler(0) == os.SCHED_OTHER  # the calling thread is left as it was
