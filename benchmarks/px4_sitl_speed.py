@@ -10,10 +10,8 @@ printed. Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...
 
 from __future__ import annotations
 
-import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -24,7 +22,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from run_timing import benchmark_parser, scenario_file  # noqa: E402
+from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
 
 from firmware_interface import hil_codec as codec  # noqa: E402
 from hil.connect import start_px4_sitl  # noqa: E402
@@ -67,20 +65,6 @@ def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> float:
         handle.close()
 
 
-def bench_hover(build: Px4Build, hover: Path, scratch: Path) -> dict:
-    """`hil run scenarios/hover.yaml --px4 DIR` (`hover`: that file or its --quick copy) as a user runs it
-    (telemetry on); its metrics."""
-    runs = scratch / "runs"
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(hover),
-                             "--px4", str(build.root), "--runs", str(runs)],
-                            capture_output=True, text=True, cwd=ROOT, timeout=600)
-    run_dir = next(p for p in runs.iterdir() if p.is_dir())
-    metrics = json.loads((run_dir / "metrics.json").read_text())
-    if result.returncode != 0:
-        print(f"  (hil run exited {result.returncode}: {metrics.get('reason')})")
-    return metrics
-
-
 def main() -> int:
     parser = benchmark_parser(__doc__)
     parser.add_argument("--px4", help="a px4_sitl_default build (default: from HIL_PX4_DIR)")
@@ -101,7 +85,7 @@ def main() -> int:
         for round_no in range(rounds):
             minimal.append(minimal_simulator(build, scratch / f"min{round_no}",
                                              QUICK_MINIMAL_SIM_S if args.quick else MINIMAL_SIM_S))
-            metrics = bench_hover(build, hover, scratch / f"bench{round_no}")
+            metrics = run_metrics(hover, ["--px4", str(build.root)], scratch / f"bench{round_no}" / "runs")
             bench.append(metrics["timing"]["realtime_factor"])
             breakdowns.append(metrics["timing"]["breakdown_us_per_step"])
             print(f"round {round_no + 1}: PX4 + minimal simulator {minimal[-1]:.1f}x, "

@@ -47,9 +47,23 @@ def scenario_file(name: str, quick: bool, scratch: Path) -> Path:
     return short
 
 
-def realtime_factor(scenario: Path, extra: list[str], runs: Path) -> float:
-    """Fly `scenario` once into the empty directory `runs`; the run's own real-time factor."""
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs), "--no-report", *extra],
-                   check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
+def run_metrics(scenario: Path, extra: list[str], runs: Path, accept_exits: tuple[int, ...] = (0,)) -> dict[str, Any]:
+    """Fly `scenario` once as a user types it (telemetry on, no report) into the empty directory `runs`; the
+    run's metrics. An exit outside `accept_exits` is printed with its reason."""
+    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs),
+                             *extra], capture_output=True, text=True, cwd=ROOT, timeout=900)
+    if not runs.is_dir():
+        raise RuntimeError(f"hil run {scenario} {' '.join(extra)} exited {result.returncode}: {result.stderr[-500:]}")
     run_dir = next(p for p in runs.iterdir() if p.is_dir())
-    return json.loads((run_dir / "metrics.json").read_text())["timing"]["realtime_factor"]
+    metrics: dict[str, Any] = json.loads((run_dir / "metrics.json").read_text())
+    if result.returncode not in accept_exits:
+        print(f"  ({scenario.name} {' '.join(extra)} exited {result.returncode}: {metrics.get('reason')})")
+    return metrics
+
+
+def realtime_factor(scenario: Path, extra: list[str], runs: Path) -> float:
+    """Fly `scenario` once into the empty directory `runs`; the run's own real-time factor (it must pass)."""
+    metrics = run_metrics(scenario, extra, runs)
+    if metrics["exit_code"] != 0:
+        raise RuntimeError(f"hil run {scenario} {' '.join(extra)} exited {metrics['exit_code']}: {metrics['reason']}")
+    return float(metrics["timing"]["realtime_factor"])
