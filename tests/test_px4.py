@@ -46,7 +46,9 @@ def hitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def hil_run(*args: str, runs: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hil.cli", "run", *args, "--runs", str(runs), "--no-telemetry"],
+    """`runs` is given relative to the working directory, as a user types it (PX4 runs in a rootfs under it)."""
+    relative = os.path.relpath(runs, ROOT)
+    return subprocess.run([sys.executable, "-m", "hil.cli", "run", *args, "--runs", relative, "--no-telemetry"],
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 

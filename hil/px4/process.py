@@ -84,6 +84,7 @@ class Px4Process:
         self.build = build
         self.claim = claim
         self.log_path = log_path
+        rootfs = rootfs.resolve()  # PX4 runs in it and is told it again: a relative path would nest in itself
         rootfs.mkdir(parents=True, exist_ok=True)
         argv = [str(build.px4), "-d", str(build.etc), "-w", str(rootfs), *extra_args, "-i", str(claim.number)]
         self._log = open(log_path, "wb")  # noqa: SIM115 - closed in stop()
