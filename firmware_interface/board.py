@@ -13,11 +13,13 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from pymavlink.dialects.v20 import common
 from pymavlink.dialects.v20.common import (
     MAV_AUTOPILOT_INVALID,
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_NAV_LAND,
+    MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_FRAME_LOCAL_NED,
     MAV_PARAM_TYPE_REAL32,
     MAV_RESULT_ACCEPTED,
@@ -33,6 +35,7 @@ HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGr
 SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
 STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
+EVENT_MSG_ID = 410  # MAVLink's EVENT (the events protocol), newer than pymavlink's dialect
 
 
 @dataclass(frozen=True)
@@ -50,6 +53,13 @@ OFFBOARD = Request(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM), float(PX
 LAND = Request(MAV_CMD_NAV_LAND)  # PX4's AUTO_LAND where the vehicle is
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
                          "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE"})
+# What a session decodes; the board's other messages stay whole frames (for the tlog and a ground station).
+DECODED_IDS = frozenset(getattr(common, f"MAVLINK_MSG_ID_{kind}")
+                        for kind in (*INBOX_KINDS, "HIL_ACTUATOR_CONTROLS", "PARAM_VALUE"))
+# Messages of MAVLink's protocols rather than telemetry streams: never asked to stop (PX4 would refuse).
+PROTOCOL_IDS = frozenset({common.MAVLINK_MSG_ID_TIMESYNC, common.MAVLINK_MSG_ID_COMMAND_LONG,
+                          common.MAVLINK_MSG_ID_COMMAND_INT, EVENT_MSG_ID})
+STOP_STREAM = -1.0  # MAV_CMD_SET_MESSAGE_INTERVAL's param2 that stops a stream
 
 
 class BoardKind(Enum):
@@ -103,6 +113,10 @@ class BoardSession:
         self.state = BoardState()
         self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
         self.relay: list[bytes] | None = None  # when a list: the raw frames of every non-HIL message, for a GCS
+        # True: ask the board to stop each telemetry stream it sends here that the bench does not read (only
+        # where no ground station shares the link). PX4's onboard link streams ~400 messages a second.
+        self.stop_unread_streams = False
+        self.streams_stopped: list[int] = []  # the message ids asked to stop, in order
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
         self.wait_for_replies = True  # False: never wait for a reply, as with a real board (injected link faults)
         self.actuators: codec.ActuatorOutputs | None = None
@@ -111,6 +125,7 @@ class BoardSession:
         self._text_chunks: dict[int, list[str]] = {}
         self._last_rx = clock()
         self.link.encoder.component_id = BENCH_COMPONENT_ID
+        self.link.decoded_ids = DECODED_IDS
         self.start_time = clock()
 
     # --- housekeeping -------------------------------------------------------------
@@ -126,6 +141,17 @@ class BoardSession:
             self.link.send("HEARTBEAT", type=MAV_TYPE_GCS, autopilot=MAV_AUTOPILOT_INVALID,
                            base_mode=0, custom_mode=0, system_status=0, mavlink_version=3)
             self._last_heartbeat_sent = now
+            if self.stop_unread_streams and self.state.info is not None:
+                self._stop_streams_seen()
+
+    def _stop_streams_seen(self) -> None:
+        """MAV_CMD_SET_MESSAGE_INTERVAL(id, -1) for every message seen on the link since the last call that
+        the bench neither reads nor needs for a protocol: fewer messages for the board to send and for the
+        bench to take in. Once per id; the ACKs arrive like any other."""
+        unread = sorted(self.link.ids_seen - DECODED_IDS - PROTOCOL_IDS - set(self.streams_stopped))
+        for msgid in unread:
+            self.request(MAV_CMD_SET_MESSAGE_INTERVAL, (float(msgid), STOP_STREAM))
+        self.streams_stopped += unread
 
     def check_watchdog(self) -> None:
         silent = self.clock() - self._last_rx
@@ -137,7 +163,8 @@ class BoardSession:
         messages = self.link.receive(timeout_s)
         for msg in messages:
             self._handle(msg)
-        if self.link.passthrough:  # valid frames pymavlink cannot decode: a GCS may still read them
+        if self.link.passthrough:  # valid frames the bench does not read: a GCS may
+            self._last_rx = self.clock()
             if self.relay is not None:
                 self.relay += self.link.passthrough
             self.link.passthrough = []

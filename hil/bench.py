@@ -27,6 +27,7 @@ from firmware_interface import hil_codec as codec
 from firmware_interface.board import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, BoardError, BoardKind, Request
 from firmware_interface.board_messages import decode_board_message
 from firmware_interface.link import LinkError, Message
+from firmware_interface.link.dialect import message_name
 from firmware_interface.link.faults import FaultSpec, LinkFaults
 from hil.connect import BoardHandle
 from hil.exit_codes import (
@@ -208,6 +209,8 @@ class Bench:
                                       "board_failsafe": [{"t_s": t, "text": text} for t, text in self._failsafe_texts]}
         if self.board.gcs is not None:
             metrics["gcs"] = self.board.gcs.counters()
+        if self.board.commands.streams_stopped:
+            metrics["board_streams_stopped"] = [message_name(i) for i in self.board.commands.streams_stopped]
         if self.board_offset_ned is not None:
             metrics["board_frame_offset_m"] = [float(v) for v in self.board_offset_ned]
         return RunResult(code, reason, metrics)

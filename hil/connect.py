@@ -6,6 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Protocol
 
@@ -189,7 +190,7 @@ def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     try:
         px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log",
                          {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1"},
-                         preexec=die_with_parent)
+                         preexec=partial(_px4_child_setup, n))
     except BaseException:
         listener.close()
         claim.release()
@@ -210,9 +211,9 @@ def start_px4_sitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     return handle
 
 
-def _hitl_child_setup() -> None:
+def _px4_child_setup(instance: int) -> None:
     die_with_parent()
-    board_on_its_own_core()
+    board_on_its_own_core(instance)
 
 
 def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
@@ -223,7 +224,7 @@ def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     try:
         script = write_hitl_startup(run_dir / "px4-hitl.rcS", pair.slave_path)
         px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
-                         extra_args=("-s", str(script)), preexec=_hitl_child_setup)
+                         extra_args=("-s", str(script)), preexec=partial(_px4_child_setup, claim.number))
     except BaseException:
         claim.release()
         pair.master.close()

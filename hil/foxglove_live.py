@@ -17,8 +17,9 @@ import orjson
 import zenoh
 
 from firmware_interface.geodesy import LocalFrame
-from hil.channels import CHANNEL_MODELS, TOPIC_PREFIX, json_schema, schema_name
-from hil.foxglove_messages import FOXGLOVE_TOPICS, FoxgloveViews
+from hil.channels import CHANNEL_MODELS
+from hil.foxglove_channels import json_channels, view_channels
+from hil.foxglove_messages import FoxgloveViews
 from hil.frame import StepFrame
 from hil.recorder import frame_messages
 from hil.telemetry import KEY_PREFIX, Decimator, fetch_meta
@@ -53,12 +54,8 @@ class FoxgloveServer:
         self.context = foxglove.Context()
         self.server = foxglove.start_server(name="hil-bench", host=host, port=port, context=self.context)
         self.port = self.server.port
-        self._json = {name: foxglove.Channel(TOPIC_PREFIX + name, message_encoding="json", context=self.context,
-                                             schema=foxglove.Schema(name=schema_name(name), encoding="jsonschema",
-                                                                    data=json_schema(name)))
-                      for name in CHANNEL_MODELS}
-        self._protobuf = {topic: foxglove.Channel(topic, message_encoding="protobuf", context=self.context,
-                                                  schema=kind.get_schema()) for topic, kind in FOXGLOVE_TOPICS.items()}
+        self._json = json_channels(self.context, CHANNEL_MODELS)
+        self._protobuf = view_channels(self.context)
         self._decimator = Decimator({**BOARD_STREAM_RATES_HZ, **(rates_hz or {})}, MAX_WALL_HZ) if decimate else None
         self._views = FoxgloveViews(local_frame, start_ns)
         self._start_ns = start_ns

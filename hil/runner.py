@@ -207,6 +207,8 @@ def _fly(scenario: Scenario, options: RunOptions, run_dir: Path, recorder: Recor
     if endpoints:
         handle.relay_to(GcsBridge(endpoints))
         state.board_text += f"; ground station relay to {', '.join(endpoints)}"
+    else:  # no ground station reads the command link through the bench: the board need not stream what we skip
+        handle.commands.stop_unread_streams = handle.kind is not BoardKind.EMULATOR
     all_sinks: list[Sink] = [recorder.record, *(sinks or [])]
     events: list[Callable[[int, str], None]] = [recorder.event]
     if parts.publisher is not None:

@@ -2,6 +2,7 @@
 
 import os
 import subprocess
+from functools import partial
 from pathlib import Path
 
 import pytest
@@ -60,16 +61,19 @@ def test_the_heap_is_frozen_for_the_flight_after_collecting_garbage_and_unfrozen
 
 
 @pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="one CPU: the board shares it by necessity")
-def test_a_rehearsal_board_runs_on_the_last_cpu_only_and_the_bench_keeps_all():
+def test_a_px4_instance_runs_on_one_cpu_side_by_side_ones_on_others_and_the_bench_keeps_all():
     allowed = sorted(os.sched_getaffinity(0))
-    child = subprocess.Popen(["sleep", "30"], preexec_fn=board_on_its_own_core)  # noqa: PLW1509 - as PX4 is started
+    children = [subprocess.Popen(["sleep", "30"], preexec_fn=partial(board_on_its_own_core, n))  # noqa: PLW1509
+                for n in (0, 1)]  # as PX4 instances 0 and 1 are started
     try:
-        status = Path(f"/proc/{child.pid}/status").read_text()
-        assert f"Cpus_allowed_list:\t{allowed[-1]}\n" in status  # the kernel's own view of the child
+        for child, cpu in zip(children, (allowed[-1], allowed[-2]), strict=True):
+            status = Path(f"/proc/{child.pid}/status").read_text()
+            assert f"Cpus_allowed_list:\t{cpu}\n" in status  # the kernel's own view of the child
         assert sorted(os.sched_getaffinity(0)) == allowed
     finally:
-        child.kill()
-        child.wait()
+        for child in children:
+            child.kill()
+            child.wait()
 
 
 @pytest.mark.skipif(not _may_raise_priority(), reason="needs root or CAP_SYS_NICE")

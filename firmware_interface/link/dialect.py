@@ -43,3 +43,10 @@ for _msgid, (_name, _crc_extra, _size) in PASSTHROUGH.items():
 def frame_msgid(frame: bytes) -> int:
     """The message id of a whole v2 or v1 frame."""
     return frame[7] | frame[8] << 8 | frame[9] << 16 if frame[0] == 0xFD else frame[5]
+
+
+def message_name(msgid: int) -> str:
+    """The MAVLink name of a message id, e.g. 105 -> "HIGHRES_IMU" (`MSG_<id>` for one we do not know)."""
+    if msgid in common.mavlink_map:
+        return str(common.mavlink_map[msgid].msgname)
+    return PASSTHROUGH[msgid][0] if msgid in PASSTHROUGH else f"MSG_{msgid}"
