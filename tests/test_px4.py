@@ -20,6 +20,7 @@ from typing import Any
 
 import pytest
 from mcap.reader import make_reader
+from pymavlink import mavutil
 from pyulog import ULog
 
 from hil.telemetry import ZenohOptions, subscribe
@@ -136,6 +137,23 @@ def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario)
     assert "Landing detected" in texts  # STATUSTEXT reaches the bench: PX4 takes it for a GCS
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert set(metrics["board_estimate_error_m"]) == {"x", "y", "z"}
+    assert_px4_stopped_the_streams_the_bench_does_not_read(run_dir, metrics)
+
+
+def assert_px4_stopped_the_streams_the_bench_does_not_read(run_dir: Path, metrics: dict[str, Any]) -> None:
+    """PX4's onboard link streams HIGHRES_IMU at 50 Hz and LOCAL_POSITION_NED at 30 Hz (mavlink_main.cpp,
+    MAVLINK_MODE_ONBOARD). The bench reads the latter and asks PX4 to stop the former once it has seen it
+    (MAV_CMD_SET_MESSAGE_INTERVAL, -1): over the whole flight far fewer HIGHRES_IMU than LOCAL_POSITION_NED
+    must reach the command link, where without the request there would be 5/3 as many."""
+    assert "HIGHRES_IMU" in metrics["board_streams_stopped"]
+    assert "LOCAL_POSITION_NED" not in metrics["board_streams_stopped"]
+    counts: Counter[str] = Counter()
+    tlog = mavutil.mavlink_connection(str(run_dir / "link.tlog"))
+    while (msg := tlog.recv_match()) is not None:
+        if msg.get_srcComponent() == 1:  # PX4's autopilot component, not the bench's frames
+            counts[msg.get_type()] += 1
+    assert counts["LOCAL_POSITION_NED"] > 1000  # ~30 Hz over a minute of flight: still streamed
+    assert counts["HIGHRES_IMU"] < 0.2 * counts["LOCAL_POSITION_NED"]
 
 
 def test_hitl_rehearsal_flies_the_serial_path_in_real_time_and_a_gcs_sees_px4_through_the_relay(hitl, tmp_path):
