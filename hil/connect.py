@@ -222,7 +222,7 @@ def start_px4_hitl(build: Px4Build, run_dir: Path, watchdog_s: float, tap: Frame
     pair = open_pty_pair()
     claim, _ = claim_instance(lambda n: n)
     try:
-        script = write_hitl_startup(run_dir / "px4-hitl.rcS", pair.slave_path)
+        script = write_hitl_startup(run_dir.resolve() / "px4-hitl.rcS", pair.slave_path)  # PX4 runs elsewhere
         px4 = Px4Process(build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
                          extra_args=("-s", str(script)), preexec=partial(_px4_child_setup, claim.number))
     except BaseException:
