@@ -12,7 +12,7 @@ from typing import Protocol
 
 import yaml
 
-from firmware_interface.board import BoardError, BoardKind, BoardSession
+from firmware_interface.board import LOCKSTEP_SPIN_S, BoardError, BoardKind, BoardSession
 from firmware_interface.link import (
     FrameTap,
     Link,
@@ -113,9 +113,16 @@ def px4_parameters(scenario: Scenario) -> dict[str, float]:
     return {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
 
 
-def emulator_config(scenario: Scenario) -> dict:
+def paced(scenario: Scenario, realtime: bool, kind: BoardKind) -> bool:
+    """Whether a run follows the wall clock: when asked, with a board on its own clock (a real board, or
+    PX4's HITL code path), or with link faults (their latencies and outages are wall-clock effects)."""
+    return realtime or kind is BoardKind.HITL or bool(scenario.faults.link)
+
+
+def emulator_config(scenario: Scenario, paced_run: bool = False) -> dict:
     """What the emulator is told: the scenario's board settings, and EKF2_GPS_DELAY set to the receiver's
-    delay, as a user would set the parameter for the GPS on the vehicle."""
+    delay, as a user would set the parameter for the GPS on the vehicle. In lockstep it polls for the next
+    frame rather than sleeping (`spin_wait_s`): a paced board must not spend a core between frames."""
     board = scenario.board
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     config = {"airframe": board.airframe or scenario.vehicle.preset, "controller": board.controller,
@@ -123,12 +130,15 @@ def emulator_config(scenario: Scenario) -> dict:
     estimator = dict(config.get("estimator", {}))
     estimator.setdefault("gps_delay_s", gps.delay_s)
     config["estimator"] = estimator
+    config["spin_wait_s"] = 0.0 if paced_run else LOCKSTEP_SPIN_S
     return config
 
 
-def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
+def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None,
+                   realtime: bool = False) -> BoardHandle:
     config_path = run_dir / "emulator.yaml"
-    config_path.write_text(yaml.safe_dump(emulator_config(scenario), sort_keys=False))
+    paced_run = paced(scenario, realtime, BoardKind.EMULATOR)
+    config_path.write_text(yaml.safe_dump(emulator_config(scenario, paced_run), sort_keys=False))
     pair = open_pty_pair()
     log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
     popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,

@@ -16,8 +16,9 @@ larger (measured on a 75 s HITL rehearsal: 8.6 MB zstd, 12.8 MB LZ4).
 In a paced run (`background`) the MCAP writing runs on its own thread, fed in order through a
 bounded queue, so that serialising and closing chunks never sits between a step's deadline and its
 sensor frame (with the earlier Python writer, closing a chunk on the stepping thread made a board paced
-on the wall clock see a late sensor frame every ~2.5 s). A lockstep run writes on the stepping thread, after the step's frame is sent
-(there a second thread only competes for the interpreter: -6 % real-time factor, measured).
+on the wall clock see a late sensor frame every ~2.5 s). A lockstep run writes on the stepping thread,
+after the step's frame is sent (there a second thread only competes for the interpreter: -6 % real-time
+factor, measured).
 """
 
 from __future__ import annotations

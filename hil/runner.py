@@ -110,7 +110,7 @@ def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path, tap: Fr
         handle.params = px4_parameters(scenario)
         return handle
     if options.port is None:
-        return start_emulator(scenario, run_dir, options.watchdog_s, tap)
+        return start_emulator(scenario, run_dir, options.watchdog_s, tap, options.realtime)
     return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s, tap, options.baud)
 
 

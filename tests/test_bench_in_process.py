@@ -16,7 +16,7 @@ from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
 from hil.bench import Bench
-from hil.connect import BoardHandle, emulator_config
+from hil.connect import BoardHandle, emulator_config, paced
 from hil.exit_codes import EXIT_BOARD, EXIT_OK
 from hil.frame import StepFrame
 from hil.scenario.loader import load_scenario
@@ -25,6 +25,7 @@ from hil.scenario.schema import Scenario
 pytestmark = pytest.mark.slow  # a few seconds of flight in lockstep
 
 HOVER_M = 2.0
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def hover(tmp_path: Path, seconds: float, end: str = "land") -> Scenario:
@@ -93,3 +94,13 @@ def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_s
     assert result.exit_code == EXIT_BOARD and result.reason.startswith("board/link failure")
     assert frames[-1].mission_t == pytest.approx(1.0, abs=0.1)  # the loop stopped where the board did
     assert np.all(np.diff([f.t_us for f in frames]) == 4000)
+
+
+@pytest.mark.parametrize(("name", "realtime", "spins"), [("hover", False, True), ("hover", True, False),
+                                                       ("link_faults", False, False)])
+def test_the_emulator_polls_for_frames_only_in_lockstep(name, realtime, spins):
+    """A lockstep emulator polls for the next frame (it comes within ~0.3 ms); a paced one, asked for or paced
+    by the scenario's wall-clock link faults, sleeps between frames and leaves the core to the bench."""
+    scenario = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
+    config = build_config(emulator_config(scenario, paced(scenario, realtime, BoardKind.EMULATOR)))
+    assert (config.spin_wait_s > 0) is spins
