@@ -120,6 +120,7 @@ class BoardSession:
         self.stop_unread_streams = False
         self.streams_stopped: list[int] = []  # the message ids asked to stop, in order
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
+        self.reply_spin_s = LOCKSTEP_SPIN_S  # 0: a lockstep wait sleeps at once (runs that share the CPUs)
         self.wait_for_replies = True  # False: never wait for a reply, as with a real board (injected link faults)
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
@@ -311,7 +312,7 @@ class BoardSession:
                 if self.lockstep:
                     raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog_s:.2f} s in lockstep")
                 break
-            self.poll(remaining, LOCKSTEP_SPIN_S if self.lockstep else 0.0)
+            self.poll(remaining, self.reply_spin_s if self.lockstep else 0.0)
         self._awaited_t_us = None
         return self.actuators
 

@@ -119,10 +119,11 @@ def paced(scenario: Scenario, realtime: bool, kind: BoardKind) -> bool:
     return realtime or kind is BoardKind.HITL or bool(scenario.faults.link)
 
 
-def emulator_config(scenario: Scenario, paced_run: bool = False) -> dict:
+def emulator_config(scenario: Scenario, poll: bool = False) -> dict:
     """What the emulator is told: the scenario's board settings, and EKF2_GPS_DELAY set to the receiver's
     delay, as a user would set the parameter for the GPS on the vehicle. In lockstep it polls for the next
-    frame rather than sleeping (`spin_wait_s`): a paced board must not spend a core between frames."""
+    frame rather than sleeping when `poll` (`spin_wait_s`): a paced board, or one of several runs sharing the
+    CPUs, must not spend a core between frames."""
     board = scenario.board
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     config = {"airframe": board.airframe or scenario.vehicle.preset, "controller": board.controller,
@@ -130,15 +131,15 @@ def emulator_config(scenario: Scenario, paced_run: bool = False) -> dict:
     estimator = dict(config.get("estimator", {}))
     estimator.setdefault("gps_delay_s", gps.delay_s)
     config["estimator"] = estimator
-    config["spin_wait_s"] = 0.0 if paced_run else LOCKSTEP_SPIN_S
+    config["spin_wait_s"] = LOCKSTEP_SPIN_S if poll else 0.0
     return config
 
 
 def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None,
-                   realtime: bool = False) -> BoardHandle:
+                   realtime: bool = False, poll: bool = True) -> BoardHandle:
     config_path = run_dir / "emulator.yaml"
-    paced_run = paced(scenario, realtime, BoardKind.EMULATOR)
-    config_path.write_text(yaml.safe_dump(emulator_config(scenario, paced_run), sort_keys=False))
+    poll = poll and not paced(scenario, realtime, BoardKind.EMULATOR)
+    config_path.write_text(yaml.safe_dump(emulator_config(scenario, poll), sort_keys=False))
     pair = open_pty_pair()
     log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
     popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping
@@ -85,14 +86,19 @@ class Link:
 
         For the first `spin_s` of the wait the transport is polled without sleeping: a process woken from
         `select` starts ~100 us later on this kind of machine (measured: the emulator's lockstep round trip
-        fell from ~300 to ~220 us), which matters when a reply is due within microseconds. It costs a
-        core's time meanwhile, so only a lockstep wait asks for it."""
+        fell from ~300 to ~220 us), which matters when a reply is due within microseconds. Each empty
+        poll yields the CPU (`sched_yield`): a process that has work on it (the peer, or another run of a
+        sweep) takes it at once, so polling only uses a core nobody else wants. Only a lockstep wait asks
+        for it."""
         start = time.monotonic()
         deadline, spin_until = start + timeout_s, start + min(spin_s, timeout_s)
         while True:
             now = time.monotonic()
             remaining = deadline - now
-            data = self.transport.read(0.0 if now < spin_until else max(remaining, 0.0))
+            spinning = now < spin_until
+            data = self.transport.read(0.0 if spinning else max(remaining, 0.0))
+            if spinning and not data:
+                os.sched_yield()
             self.bytes_in += len(data)
             if self.faults is not None:
                 data = self.faults.incoming_bytes(data)
