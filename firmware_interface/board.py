@@ -35,8 +35,6 @@ HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGr
 SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
 STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
-# A lockstep reply comes within ~0.1-0.4 ms: the wait for it polls without sleeping this long (`Link.receive`)
-LOCKSTEP_SPIN_S = 0.002
 EVENT_MSG_ID = 410  # MAVLink's EVENT (the events protocol), newer than pymavlink's dialect
 
 
@@ -120,7 +118,6 @@ class BoardSession:
         self.stop_unread_streams = False
         self.streams_stopped: list[int] = []  # the message ids asked to stop, in order
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
-        self.reply_spin_s = LOCKSTEP_SPIN_S  # 0: a lockstep wait sleeps at once (runs that share the CPUs)
         self.wait_for_replies = True  # False: never wait for a reply, as with a real board (injected link faults)
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
@@ -161,9 +158,9 @@ class BoardSession:
         if silent > self.watchdog_s:
             raise BoardError(f"board silent for {silent:.2f} s on {self.link.name} (watchdog {self.watchdog_s:.2f} s)")
 
-    def poll(self, timeout_s: float = 0.0, spin_s: float = 0.0) -> list[Message]:
-        """Read and handle whatever arrives within `timeout_s` (see `Link.receive` for `spin_s`)."""
-        messages = self.link.receive(timeout_s, spin_s)
+    def poll(self, timeout_s: float = 0.0) -> list[Message]:
+        """Read and handle whatever arrives within `timeout_s`."""
+        messages = self.link.receive(timeout_s)
         for msg in messages:
             self._handle(msg)
         if self.link.passthrough:  # valid frames the bench does not read: a GCS may
@@ -312,7 +309,7 @@ class BoardSession:
                 if self.lockstep:
                     raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog_s:.2f} s in lockstep")
                 break
-            self.poll(remaining, self.reply_spin_s if self.lockstep else 0.0)
+            self.poll(remaining)
         self._awaited_t_us = None
         return self.actuators
 

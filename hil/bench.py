@@ -29,7 +29,7 @@ from firmware_interface.board_messages import decode_board_message
 from firmware_interface.link import LinkError, Message
 from firmware_interface.link.dialect import message_name
 from firmware_interface.link.faults import FaultSpec, LinkFaults
-from hil.connect import BoardHandle, paced
+from hil.connect import BoardHandle
 from hil.exit_codes import (
     EXIT_BOARD,
     EXIT_EXPECT_FAILED,
@@ -105,7 +105,7 @@ class Bench:
                  on_event: Callable[[int, str], None] | None = None) -> None:
         self.scenario = scenario
         self.board = board
-        self.realtime = paced(scenario, realtime, board.kind)
+        self.realtime = realtime or board.kind is BoardKind.HITL
         self.sinks = sinks
         self.progress = progress
         self.on_event = on_event
@@ -156,7 +156,7 @@ class Bench:
 
     def _inject_link_faults(self, rng: np.random.Generator) -> list[LinkFaults]:
         """The scenario's link faults on each link to the board. They are wall-clock effects (a board's
-        failsafe counts real time), so the run is paced in real time (`paced`) and never waits for a reply."""
+        failsafe counts real time), so the run is paced in real time and never waits for a reply."""
         specs = [FaultSpec(f.kind, f.direction, f.start_s, f.end_s, f.probability, f.burst_frames,
                            f.delay_ms / 1000.0, f.jitter_ms / 1000.0, f.byte_error_rate)
                  for f in self.scenario.faults.link]
@@ -167,6 +167,7 @@ class Bench:
             session.wait_for_replies = False
             session.watchdog_s += session.link.faults.longest_outage_s()
             faults.append(session.link.faults)
+        self.realtime = True
         return faults
 
     # --- the run -----------------------------------------------------------------

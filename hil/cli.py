@@ -150,8 +150,8 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
         except ValueError as exc:
             print(f"hil run: --foxglove {exc}", file=sys.stderr)
             return None
-    return RunOptions(port=args.port, foxglove=args.foxglove, mavlink=args.mavlink, realtime=args.realtime,
-                      poll=not args.no_poll, px4=px4, px4_hitl=px4_hitl, connect_timeout_s=args.connect_timeout,
+    return RunOptions(port=args.port, foxglove=args.foxglove, mavlink=args.mavlink, realtime=args.realtime, px4=px4,
+                      px4_hitl=px4_hitl, connect_timeout_s=args.connect_timeout,
                       gcs=[] if args.no_gcs else args.gcs, baud=args.baud, runs_root=Path(args.runs),
                       keep_failed=args.keep_failed, telemetry=None if args.no_telemetry else _zenoh_options(args),
                       telemetry_rates_hz=scenario.telemetry.rates_hz)
@@ -369,9 +369,6 @@ def _add_run_command(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--connect-timeout", type=float, metavar="S",
                      help="seconds to wait for a board you attached (default 60 for PX4 SITL, 10 for serial)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
-    run.add_argument("--no-poll", action="store_true",
-                     help="lockstep waits sleep at once instead of polling up to 2 ms (for runs sharing the CPUs, "
-                          "as a sweep's samples do; polling on a busy machine slows every run)")
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")

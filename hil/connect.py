@@ -12,7 +12,7 @@ from typing import Protocol
 
 import yaml
 
-from firmware_interface.board import LOCKSTEP_SPIN_S, BoardError, BoardKind, BoardSession
+from firmware_interface.board import BoardError, BoardKind, BoardSession
 from firmware_interface.link import (
     FrameTap,
     Link,
@@ -113,17 +113,9 @@ def px4_parameters(scenario: Scenario) -> dict[str, float]:
     return {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
 
 
-def paced(scenario: Scenario, realtime: bool, kind: BoardKind) -> bool:
-    """Whether a run follows the wall clock: when asked, with a board on its own clock (a real board, or
-    PX4's HITL code path), or with link faults (their latencies and outages are wall-clock effects)."""
-    return realtime or kind is BoardKind.HITL or bool(scenario.faults.link)
-
-
-def emulator_config(scenario: Scenario, poll: bool = False) -> dict:
+def emulator_config(scenario: Scenario) -> dict:
     """What the emulator is told: the scenario's board settings, and EKF2_GPS_DELAY set to the receiver's
-    delay, as a user would set the parameter for the GPS on the vehicle. In lockstep it polls for the next
-    frame rather than sleeping when `poll` (`spin_wait_s`): a paced board, or one of several runs sharing the
-    CPUs, must not spend a core between frames."""
+    delay, as a user would set the parameter for the GPS on the vehicle."""
     board = scenario.board
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     config = {"airframe": board.airframe or scenario.vehicle.preset, "controller": board.controller,
@@ -131,15 +123,12 @@ def emulator_config(scenario: Scenario, poll: bool = False) -> dict:
     estimator = dict(config.get("estimator", {}))
     estimator.setdefault("gps_delay_s", gps.delay_s)
     config["estimator"] = estimator
-    config["spin_wait_s"] = LOCKSTEP_SPIN_S if poll else 0.0
     return config
 
 
-def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None,
-                   realtime: bool = False, poll: bool = True) -> BoardHandle:
+def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: FrameTap | None = None) -> BoardHandle:
     config_path = run_dir / "emulator.yaml"
-    poll = poll and not paced(scenario, realtime, BoardKind.EMULATOR)
-    config_path.write_text(yaml.safe_dump(emulator_config(scenario, poll), sort_keys=False))
+    config_path.write_text(yaml.safe_dump(emulator_config(scenario), sort_keys=False))
     pair = open_pty_pair()
     log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
     popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,

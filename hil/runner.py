@@ -50,7 +50,6 @@ class RunOptions:
     port: str | None = None  # None: the built-in emulator on a pty
     mavlink: str | None = None  # PX4 SITL: a separate MAVLink link for commands (e.g. udpout:127.0.0.1:14580)
     realtime: bool = False
-    poll: bool = True  # lockstep waits poll before they sleep (off for runs that share the CPUs: a sweep's)
     connect_timeout_s: float | None = None  # a board the user attached: how long to wait for it
     baud: int | None = None  # serial rate where --port names none
     px4: Px4Build | None = None  # the bench starts PX4 SITL from this build (lockstep)
@@ -111,7 +110,7 @@ def attach_board(scenario: Scenario, options: RunOptions, run_dir: Path, tap: Fr
         handle.params = px4_parameters(scenario)
         return handle
     if options.port is None:
-        return start_emulator(scenario, run_dir, options.watchdog_s, tap, options.realtime, options.poll)
+        return start_emulator(scenario, run_dir, options.watchdog_s, tap)
     return open_board(options.port, options.mavlink, options.watchdog_s, options.connect_timeout_s, tap, options.baud)
 
 
@@ -210,8 +209,6 @@ def _fly(scenario: Scenario, options: RunOptions, run_dir: Path, recorder: Recor
         state.board_text += f"; ground station relay to {', '.join(endpoints)}"
     else:  # no ground station reads the command link through the bench: the board need not stream what we skip
         handle.commands.stop_unread_streams = handle.kind is not BoardKind.EMULATOR
-    if not options.poll:
-        handle.session.reply_spin_s = 0.0
     all_sinks: list[Sink] = [recorder.record, *(sinks or [])]
     events: list[Callable[[int, str], None]] = [recorder.event]
     if parts.publisher is not None:

@@ -10,14 +10,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
 
 from firmware_interface.board import BoardKind, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
 from hil.bench import Bench
-from hil.connect import BoardHandle, emulator_config, start_emulator
+from hil.connect import BoardHandle, emulator_config
 from hil.exit_codes import EXIT_BOARD, EXIT_OK
 from hil.frame import StepFrame
 from hil.scenario.loader import load_scenario
@@ -26,7 +25,6 @@ from hil.scenario.schema import Scenario
 pytestmark = pytest.mark.slow  # a few seconds of flight in lockstep
 
 HOVER_M = 2.0
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def hover(tmp_path: Path, seconds: float, end: str = "land") -> Scenario:
@@ -95,22 +93,3 @@ def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_s
     assert result.exit_code == EXIT_BOARD and result.reason.startswith("board/link failure")
     assert frames[-1].mission_t == pytest.approx(1.0, abs=0.1)  # the loop stopped where the board did
     assert np.all(np.diff([f.t_us for f in frames]) == 4000)
-
-
-@pytest.mark.parametrize(("name", "realtime", "poll", "spins"), [("hover", False, True, True),
-                                                               ("hover", True, True, False),
-                                                               ("link_faults", False, True, False),
-                                                               ("hover", False, False, False)])
-def test_the_emulator_polls_for_frames_only_in_lockstep_with_the_cpus_to_itself(name, realtime, poll, spins,
-                                                                                tmp_path):
-    """A lockstep emulator polls for the next frame (it comes within ~0.3 ms); a paced one, asked for or paced
-    by the scenario's wall-clock link faults, sleeps between frames and leaves the core to the bench, and so
-    does one of a sweep's runs (`--no-poll`: polling runs side by side slowed a pair of gust runs 20.6 s ->
-    26.8 s). Read from the configuration the bench hands the emulator's process."""
-    scenario = load_scenario(ROOT / "scenarios" / f"{name}.yaml")
-    handle = start_emulator(scenario, tmp_path, 2.0, realtime=realtime, poll=poll)
-    try:
-        config = build_config(yaml.safe_load((tmp_path / "emulator.yaml").read_text()))
-    finally:
-        handle.close()
-    assert (config.spin_wait_s > 0) is spins

@@ -72,8 +72,6 @@ class EmulatorConfig(_Model):
     failsafe_s: float = Field(0.5, gt=0, description="no HIL_SENSOR this long while armed: disarm")
     system_id: int = Field(1, ge=1, le=255)
     lockstep: bool = True
-    spin_wait_s: float = Field(0.0, ge=0, le=0.01, description="poll for the next frame this long before "
-                               "sleeping (a lockstep bench sends it within ~0.3 ms; a paced one 4 ms later)")
 
 
 # The inspection quad has ~1/11 of the paper airframe's inertia and 20 ms rotor lag: the attitude

@@ -124,7 +124,7 @@ class EmulatedBoard:
         try:
             while not should_stop():
                 self._housekeeping()
-                for msg in self.link.receive(0.05, self.config.spin_wait_s):
+                for msg in self.link.receive(0.05):
                     self.handle(msg)
         except LinkLost as exc:
             self.stop_reason = f"link lost: {exc.reason}"

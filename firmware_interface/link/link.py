@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import time
 from collections import Counter
 from collections.abc import Callable, Mapping
@@ -81,24 +80,12 @@ class Link:
         if batch:
             self.transport.write(bytes(batch))
 
-    def receive(self, timeout_s: float, spin_s: float = 0.0) -> list[Message]:
-        """Messages that arrive within `timeout_s` (returns as soon as one batch is in).
-
-        For the first `spin_s` of the wait the transport is polled without sleeping: a process woken from
-        `select` starts ~100 us later on this kind of machine (measured: the emulator's lockstep round trip
-        fell from ~300 to ~220 us), which matters when a reply is due within microseconds. Each empty
-        poll yields the CPU (`sched_yield`): a process that has work on it (the peer, or another run of a
-        sweep) takes it at once, so polling only uses a core nobody else wants. Only a lockstep wait asks
-        for it."""
-        start = time.monotonic()
-        deadline, spin_until = start + timeout_s, start + min(spin_s, timeout_s)
+    def receive(self, timeout_s: float) -> list[Message]:
+        """Messages that arrive within `timeout_s` (returns as soon as one batch is in)."""
+        deadline = time.monotonic() + timeout_s
         while True:
-            now = time.monotonic()
-            remaining = deadline - now
-            spinning = now < spin_until
-            data = self.transport.read(0.0 if spinning else max(remaining, 0.0))
-            if spinning and not data:
-                os.sched_yield()
+            remaining = deadline - time.monotonic()
+            data = self.transport.read(max(remaining, 0.0))
             self.bytes_in += len(data)
             if self.faults is not None:
                 data = self.faults.incoming_bytes(data)

@@ -58,7 +58,7 @@ def fly_sample(task: SampleTask) -> dict[str, Any]:
     started = time.monotonic()
     try:
         result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
-                                 "--no-telemetry", "--no-gcs", "--no-report", "--keep-failed", "--no-poll"],
+                                 "--no-telemetry", "--no-gcs", "--no-report", "--keep-failed"],
                                 capture_output=True, text=True,
                                 preexec_fn=die_with_parent, timeout=SAMPLE_TIMEOUT_S)
         code, stderr = result.returncode, result.stderr
