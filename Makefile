@@ -15,6 +15,7 @@ $(STAMP): pyproject.toml
 
 fmu: $(STAMP)
 	$(BIN)/hil fmu build
+	$(BIN)/python -m firmware_interface.emulator.warm_up
 
 run: fmu
 	$(BIN)/hil run scenarios/gust.yaml

@@ -11,10 +11,12 @@ Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N
 from __future__ import annotations
 
 import os
+import select
 import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +28,7 @@ sys.path.insert(0, str(ROOT))
 from px4_sitl_speed import MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S, minimal_simulator  # noqa: E402
 from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
 
+from firmware_interface.link import open_pty_pair  # noqa: E402
 from hil.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
 
 CONTROLLERS = ("smarc", "smpid", "backstepping")
@@ -73,7 +76,19 @@ def builds(args: Any, scratch: Path) -> tuple[Px4Build, Path]:
     return sitl, find_build(Path(root), "hitl", scratch)
 
 
-def print_table(rounds: list[dict[str, Any]]) -> None:
+def first_run(gust: Path, scratch: Path) -> tuple[float, float]:
+    """Wall-clock seconds of a whole gust run (start-up and shut-down included) with an empty flight-code cache,
+    then of the same run again with what the first compiled."""
+    env = os.environ | {"XDG_CACHE_HOME": str(scratch / "empty-cache")}
+    walls = []
+    for name in ("first", "second"):
+        start = time.perf_counter()
+        run_metrics(gust, [], scratch / name, env=env)
+        walls.append(time.perf_counter() - start)
+    return walls[0], walls[1]
+
+
+def print_table(rounds: list[dict[str, Any]], first_gust: tuple[float, float]) -> None:
     med = {name: statistics.median(r["rtf"][name] for r in rounds) for name in rounds[0]["rtf"]}
     ref = med["reference"]
     labels = {"reference": "PX4 v1.15.4 SITL + minimal simulator (reference)",
@@ -87,6 +102,9 @@ def print_table(rounds: list[dict[str, Any]]) -> None:
         goal = "" if target is None else (f">= {target:g}x real time" if name.startswith("helix")
                                           else f">= {target:g}")
         print(f"{label:<52} {med[name]:>15.1f}x {med[name] / ref:>7.2f}  {goal}")
+        if name == "gust":
+            print(f"  the whole run, start-up included: {first_gust[0]:.1f} s the first time on a machine (it compiles "
+                  f"the flight code), {first_gust[1]:.1f} s after")
     pacing = [r["pacing"] for r in rounds]
     print(f"{'hil run scenarios/hover.yaml --px4-hitl DIR (250 Hz, wall clock)':<52} period error p99 "
           f"{statistics.median(p['p99'] for p in pacing):.0f} us (target <= {TARGETS['pacing p99']:g}), "
@@ -104,8 +122,33 @@ def kernel_floor_us(steps: int) -> float:
         return float(subprocess.run([str(exe), str(steps)], check=True, capture_output=True, text=True).stdout)
 
 
-def print_breakdowns(rounds: list[dict[str, Any]], floor_us: float) -> None:
-    print(f"\nfloor: a pty round trip between two C processes {floor_us:.1f} us")
+def python_floor_us(steps: int) -> float:
+    """The same round trip between two minimal Python processes that sleep in `select`, as the bench and the
+    emulator do: the Python floor, and on a machine whose idle CPUs halt, the cost of waking up twice."""
+    pair = open_pty_pair()
+    answer = ("import os, select, sys\nfd = os.open(sys.argv[1], os.O_RDWR | os.O_NOCTTY)\n"
+              f"for _ in range({steps}):\n    got = 0\n    while got < 77:\n"
+              "        select.select([fd], [], [])\n        got += len(os.read(fd, 65536))\n"
+              "    os.write(fd, bytes(93))\n")
+    child = subprocess.Popen([sys.executable, "-c", answer, pair.slave_path])
+    fd = pair.master.fd
+    start = time.perf_counter()
+    for _ in range(steps):
+        os.write(fd, bytes(77))
+        got = 0
+        while got < 93:
+            select.select([fd], [], [])
+            got += len(os.read(fd, 65536))
+    elapsed = time.perf_counter() - start
+    child.wait()
+    pair.release_slave()
+    pair.master.close()
+    return elapsed / steps * 1e6
+
+
+def print_breakdowns(rounds: list[dict[str, Any]], floor_us: float, python_us: float) -> None:
+    print(f"\nfloor: a pty round trip between two C processes {floor_us:.1f} us, between two minimal Python "
+          f"processes {python_us:.1f} us")
     print("where a bench step's time goes (us/step, median over rounds):")
     names = ("px4 hover", "gust", "helix smarc")
     print(f"  {'part':<24}" + "".join(f"{n:>14}" for n in names))
@@ -128,12 +171,14 @@ def main() -> int:
             return 2
         files = {name: scenario_file(name, args.quick, scratch) for name in ("hover", "gust")}
         files["helix"] = helix_file(args.quick, scratch)
+        first_gust = first_run(files["gust"], scratch)
         rounds = []
         for k in range(1 if args.quick else args.rounds):
             rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick))
             print(f"round {k + 1}: " + ", ".join(f"{n} {v:.1f}x" for n, v in rounds[-1]["rtf"].items()), flush=True)
-    print_table(rounds)
-    print_breakdowns(rounds, kernel_floor_us(250 if args.quick else 5000))
+    print_table(rounds, first_gust)
+    steps = 250 if args.quick else 5000
+    print_breakdowns(rounds, kernel_floor_us(steps), python_floor_us(steps))
     return 0
 
 

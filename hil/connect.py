@@ -36,6 +36,9 @@ SITL_GCS_PORT = 14550  # where PX4 SITL's GCS instance sends (QGroundControl's d
 PX4_START_TIMEOUT_S = 30.0
 MANUAL_SITL_WAIT_S = 60.0  # a PX4 started by hand after the bench has this long to connect
 SERIAL_WAIT_S = 10.0  # a Pixhawk sends its heartbeat at 1 Hz from boot
+# the emulator's first heartbeat follows its flight code's compilation: ~0.2 s from the cache, ~8 s the first
+# time on a machine, longer when runs start side by side; a process that dies is reported at once
+EMULATOR_START_S = 60.0
 SITL_HINT = ("is PX4 SITL running? Start it (in PX4-Autopilot: make px4_sitl none_iris; or let the bench start it with "
              "--px4 DIR); PX4 connects to 127.0.0.1:4560+instance")
 
@@ -138,8 +141,14 @@ def start_emulator(scenario: Scenario, run_dir: Path, watchdog_s: float, tap: Fr
     handle = BoardHandle(session, session, BoardKind.EMULATOR, f"emulator on {pair.slave_path}",
                          f"emulator, controller {scenario.board.controller}",
                          EmulatorProcess(popen, run_dir / "emulator.log"))
+    def still_starting() -> None:
+        note = handle.exit_note()
+        if note is not None:
+            raise BoardError(f"{note} before its first heartbeat")
+
     try:
-        session.wait_heartbeat(15.0, hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
+        session.wait_heartbeat(EMULATOR_START_S, hint=f"the emulator did not start; see {run_dir / 'emulator.log'}",
+                               still_starting=still_starting)
     except BaseException:
         handle.close()
         raise

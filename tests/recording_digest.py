@@ -3,7 +3,7 @@ bit for bit (the wall-clock start, the timing channel and Foxglove's wall-clock-
 
 `tests/recording_checksums.json` keeps the digest of every shipped scenario as flown before a refactor, so
 that a change meant to keep behaviour is shown to keep it. Floating point is only reproducible on the
-same numeric platform (CPU features that pick numpy's and libm's code paths, their versions, and the
+same numeric platform (CPU features that pick numpy's and libm's code paths, their versions, numba's, and the
 kernels OpenBLAS picked for the CPU model, which `OPENBLAS_CORETYPE` can override), so the file
 keeps one set of digests per platform, each made from a revision whose flights were shown bit for bit
 equal to the earlier set's. After a deliberate change of flight results, regenerate them with
@@ -21,6 +21,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 from mcap.reader import make_reader
 from threadpoolctl import threadpool_info
@@ -52,8 +53,9 @@ def simulated_digest(run_dir: Path) -> str:
 
 
 def numeric_platform() -> dict[str, Any]:
-    """What decides the last bit of a floating-point result here: the CPU's vector features, libm, numpy, and
-    the kernel set its BLAS picked for this CPU model (two machines with the same flags can differ in it)."""
+    """What decides the last bit of a floating-point result here: the CPU's vector features, libm, numpy, numba
+    (it compiles the flight code), and the kernel set numpy's BLAS picked for this CPU model (two machines with
+    the same flags can differ in it)."""
     try:
         flags = set(Path("/proc/cpuinfo").read_text().split("flags")[1].split("\n")[0].split())
     except (OSError, IndexError):
@@ -61,7 +63,7 @@ def numeric_platform() -> dict[str, Any]:
     blas = [f"{pool['internal_api']} {pool.get('version')} {pool.get('architecture')}" for pool in threadpool_info()
             if pool["user_api"] == "blas"]
     return {"machine": platform.machine(), "libc": "-".join(platform.libc_ver()), "numpy": np.__version__,
-            "simd": [f for f in SIMD_FLAGS if f in flags], "blas": blas}
+            "numba": numba.__version__, "simd": [f for f in SIMD_FLAGS if f in flags], "blas": blas}
 
 
 def recorded_here() -> dict[str, Any] | None:

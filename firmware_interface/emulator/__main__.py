@@ -12,6 +12,7 @@ from firmware_interface.airframes import AIRFRAME_NAMES
 from firmware_interface.emulator.config import load_config
 from firmware_interface.emulator.control.registry import CONTROLLERS
 from firmware_interface.emulator.firmware import EmulatedBoard
+from firmware_interface.emulator.warm_up import compile_flight_code
 from firmware_interface.link import LinkError, open_link
 
 
@@ -46,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
+    compile_flight_code(config)  # before the first heartbeat, so the bench's start-up wait covers it
     board = EmulatedBoard(link, config)
     gc.freeze()  # start-up objects live to the end: a full collection over them stalls the loop ~10s of ms
     reason = board.run(lambda: stopping)

@@ -20,14 +20,69 @@ from dataclasses import dataclass
 import numpy as np
 from pygeomag import GeoMag
 
+from firmware_interface.emulator.compiled import flight_code
 from firmware_interface.emulator.config import EstimatorSettings
-from firmware_interface.emulator.geometry import euler_to_quat, quat_multiply, quat_to_dcm, quat_to_euler, wrap_pi
+from firmware_interface.emulator.geometry import (
+    dot,
+    euler_to_quat,
+    mat_t_vec,
+    mat_vec,
+    quat_multiply,
+    quat_to_dcm,
+    quat_to_euler,
+    wrap_pi,
+)
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2, LocalFrame
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 
 E3 = np.array((0.0, 0.0, 1.0))
 HISTORY_S = 1.0
 GPS_ACCEL_FILTER_S = 1.0
+
+
+@flight_code
+def mahony_step(q: np.ndarray, f: np.ndarray, w: np.ndarray, m: np.ndarray, field_ned: np.ndarray, use_mag: bool,
+                acc_ned: np.ndarray, g: float, attitude_gain: float, heading_gain: float, dt: float) -> np.ndarray:
+    """The attitude quaternion after `dt`: gyro rates plus the accelerometer's and magnetometer's corrections."""
+    rot = quat_to_dcm(q)
+    correction = np.zeros(3)
+    expected = mat_t_vec(rot, acc_ned - g * E3)  # the specific force the accelerometer should read
+    nf, ne = math.sqrt(dot(f, f)), math.sqrt(dot(expected, expected))
+    if nf > 1.0 and ne > 1.0:
+        a, b = f / nf, expected / ne
+        correction += attitude_gain * np.array((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                                                a[0] * b[1] - a[1] * b[0]))
+    if use_mag:
+        m_ned = mat_vec(rot, m)
+        err = wrap_pi(math.atan2(m_ned[1], m_ned[0]) - math.atan2(field_ned[1], field_ned[0]))
+        correction += -heading_gain * err * mat_t_vec(rot, E3)
+    omega = w + correction
+    rate = math.sqrt(dot(omega, omega))
+    if rate <= 0:
+        return q.copy()
+    half = 0.5 * rate * dt
+    axis_share = math.sin(half) / rate
+    dq = np.array((math.cos(half), axis_share * omega[0], axis_share * omega[1], axis_share * omega[2]))
+    q_next = quat_multiply(q, dq)
+    return q_next / math.sqrt(q_next[0] ** 2 + q_next[1] ** 2 + q_next[2] ** 2 + q_next[3] ** 2)
+
+
+@flight_code
+def propagate(pos: np.ndarray, vel: np.ndarray, pending_pos: np.ndarray, pending_vel: np.ndarray,
+              applied_pos: np.ndarray, applied_vel: np.ndarray, q: np.ndarray, f: np.ndarray, g: float, share: float,
+              dt: float) -> None:
+    """Position and velocity (NED) after `dt` in place: `share` of the pending GPS correction, then the rotated
+    accelerometer."""
+    step_pos, step_vel = share * pending_pos, share * pending_vel
+    pending_pos -= step_pos
+    pending_vel -= step_vel
+    pos += step_pos
+    vel += step_vel
+    applied_pos += step_pos
+    applied_vel += step_vel
+    acc = mat_vec(quat_to_dcm(q), f) + g * E3
+    pos += vel * dt + 0.5 * acc * dt * dt
+    vel += acc * dt
 
 
 @dataclass(frozen=True)
@@ -151,39 +206,19 @@ class Estimator:
 
     def _attitude(self, f: np.ndarray, w: np.ndarray, m: np.ndarray | None, dt: float) -> None:
         s = self.settings
-        rot = quat_to_dcm(self.q)
-        correction = np.zeros(3)
-        expected = rot.T @ (self.acc - self.g * E3)
-        nf, ne = math.sqrt(f @ f), math.sqrt(expected @ expected)
-        if nf > 1.0 and ne > 1.0:
-            a, b = f / nf, expected / ne
-            correction += s.attitude_gain * np.array((a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                                                      a[0] * b[1] - a[1] * b[0]))
-        if m is not None and self.field_ned is not None:
-            m_ned = rot @ m
-            err = wrap_pi(math.atan2(m_ned[1], m_ned[0]) - math.atan2(self.field_ned[1], self.field_ned[0]))
-            correction += -s.heading_gain * err * (rot.T @ E3)
-        omega = w + correction
+        field = self.field_ned
+        if m is None or field is None:
+            m, field, use_mag = E3, E3, False  # placeholders the compiled step does not read
+        else:
+            use_mag = True
+        self.q = mahony_step(self.q, f, w, m, field, use_mag, self.acc, self.g, s.attitude_gain, s.heading_gain, dt)
         self.rates = w
-        rate = math.sqrt(omega @ omega)
-        if rate > 0:
-            half = 0.5 * rate * dt
-            dq = np.array((math.cos(half), *(math.sin(half) / rate * omega)))
-            q = quat_multiply(self.q, dq)
-            self.q = q / math.sqrt(q @ q)
 
     def _propagate(self, f: np.ndarray, dt: float) -> None:
-        share = min(dt / self.settings.correction_spread_s, 1.0) if self.settings.correction_spread_s > 0 else 1.0
-        step_pos, step_vel = share * self._pending_pos, share * self._pending_vel
-        self._pending_pos -= step_pos
-        self._pending_vel -= step_vel
-        self.pos += step_pos
-        self.vel += step_vel
-        self._applied_pos += step_pos
-        self._applied_vel += step_vel
-        acc = quat_to_dcm(self.q) @ f + self.g * E3
-        self.pos += self.vel * dt + 0.5 * acc * dt * dt
-        self.vel += acc * dt
+        spread_s = self.settings.correction_spread_s
+        share = min(dt / spread_s, 1.0) if spread_s > 0 else 1.0
+        propagate(self.pos, self.vel, self._pending_pos, self._pending_vel, self._applied_pos, self._applied_vel,
+                  self.q, f, self.g, share, dt)
 
     def _baro(self, pressure_alt_m: float) -> None:
         if self.baro_offset is None:

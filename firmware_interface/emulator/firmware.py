@@ -124,8 +124,15 @@ class EmulatedBoard:
         try:
             while not should_stop():
                 self._housekeeping()
-                for msg in self.link.receive(0.05):
-                    self.handle(msg)
+                messages = self.link.receive(0.05)
+                # everything answered to one read leaves in one write: the bench wakes once a step, for the
+                # reply with that step's telemetry, instead of once for each message
+                self.link.begin_batch()
+                try:
+                    for msg in messages:
+                        self.handle(msg)
+                finally:
+                    self.link.flush()
         except LinkLost as exc:
             self.stop_reason = f"link lost: {exc.reason}"
             return self.stop_reason

@@ -13,12 +13,47 @@ import math
 
 import numpy as np
 
+from firmware_interface.emulator.compiled import flight_code
 from firmware_interface.emulator.config import NominalVehicle
 
 # rotor (x, y) signs in FRD and spin (+1 CCW), PX4 quad X: 1 FR, 2 RL, 3 FL, 4 RR
 _X = np.array((1.0, -1.0, 1.0, -1.0))
 _Y = np.array((1.0, -1.0, -1.0, 1.0))
 _SPIN = np.array((1.0, 1.0, -1.0, -1.0))
+
+
+@flight_code
+def rotor_thrusts(inverse: np.ndarray, t_max: float, reversible: bool, thrust_n: float,
+                  torque_frd: np.ndarray) -> np.ndarray:
+    """Rotor thrusts (N) for a collective thrust and body torques, `inverse` the inverted effectiveness matrix."""
+    low = -t_max if reversible else 0.0  # reversible (ideal) rotors push both ways
+    rp = inverse[:, 1] * torque_frd[0] + inverse[:, 2] * torque_frd[1]
+    collective = min(max(thrust_n / 4.0, low), t_max)
+    room_low = (collective - low) / -rp.min() if rp.min() < -1e-12 else np.inf
+    spread = rp.max() - rp.min()
+    scale = min(1.0, room_low, (t_max - low) / spread if spread > 0 else np.inf)
+    rp *= scale  # what does not fit above the lowest thrust is cut, not bought with extra collective
+    collective = min(collective, t_max - rp.max())  # near full thrust: lower collective
+    base = collective + rp
+    yaw = inverse[:, 3] * torque_frd[2]
+    share = 1.0
+    for rotor in range(4):  # the largest share of the yaw torque that still fits
+        if yaw[rotor] > 0:
+            share = min(share, (t_max - base[rotor]) / yaw[rotor])
+        elif yaw[rotor] < 0:
+            share = min(share, (low - base[rotor]) / yaw[rotor])
+    return np.clip(base + max(share, 0.0) * yaw, low, t_max)
+
+
+@flight_code
+def rotor_commands(inverse: np.ndarray, t_max: float, k: float, reversible: bool, thrust_n: float,
+                   torque_frd: np.ndarray) -> np.ndarray:
+    """Rotor commands 0..1 (−1..1 reversible) through the inverse of the thrust curve."""
+    ratio = rotor_thrusts(inverse, t_max, reversible, thrust_n, torque_frd) / t_max
+    if k == 0:
+        return ratio
+    magnitude = np.abs(ratio)
+    return np.sign(ratio) * (-(1 - k) + np.sqrt((1 - k) ** 2 + 4 * k * magnitude)) / (2 * k)
 
 
 class Mixer:
@@ -31,29 +66,9 @@ class Mixer:
         self.reversible = vehicle.reversible
 
     def rotor_thrusts(self, thrust_n: float, torque_frd: np.ndarray) -> np.ndarray:
-        inv, t_max = self._inverse, self.t_max
-        low = -t_max if self.reversible else 0.0  # reversible (ideal) rotors push both ways
-        rp = inv[:, 1] * torque_frd[0] + inv[:, 2] * torque_frd[1]
-        collective = min(max(thrust_n / 4.0, low), t_max)
-        room_low = (collective - low) / -float(rp.min()) if rp.min() < -1e-12 else np.inf
-        spread = float(rp.max() - rp.min())
-        scale = min(1.0, room_low, (t_max - low) / spread if spread > 0 else np.inf)
-        rp *= scale  # what does not fit above the lowest thrust is cut, not bought with extra collective
-        collective = min(collective, t_max - float(rp.max()))  # near full thrust: lower collective
-        base = collective + rp
-        yaw = inv[:, 3] * torque_frd[2]
-        share = 1.0
-        for b, y in zip(base, yaw, strict=True):  # the largest share of the yaw torque that still fits
-            if y > 0:
-                share = min(share, (t_max - b) / y)
-            elif y < 0:
-                share = min(share, (low - b) / y)
-        return np.clip(base + max(share, 0.0) * yaw, low, t_max)
+        return rotor_thrusts(self._inverse, self.t_max, self.reversible, thrust_n, np.asarray(torque_frd, np.float64))
 
     def commands(self, thrust_n: float, torque_frd: np.ndarray) -> np.ndarray:
         """Rotor commands 0..1 through the inverse thrust curve."""
-        ratio = self.rotor_thrusts(thrust_n, torque_frd) / self.t_max
-        if self.k == 0:
-            return ratio
-        k, magnitude = self.k, np.abs(ratio)
-        return np.sign(ratio) * (-(1 - k) + np.sqrt((1 - k) ** 2 + 4 * k * magnitude)) / (2 * k)
+        return rotor_commands(self._inverse, self.t_max, self.k, self.reversible, thrust_n,
+                              np.asarray(torque_frd, np.float64))

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from firmware_interface.emulator.compiled import flight_code
 from firmware_interface.emulator.control.base import (
     E3,
     ControlOutput,
@@ -20,13 +21,34 @@ from firmware_interface.emulator.control.base import (
     Setpoint,
     VehicleState,
     angle_error,
-    attitude_from_force,
     body_torque,
-    collective_thrust,
+    command_from_force,
 )
 from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
-from firmware_interface.emulator.geometry import coriolis_matrix, inertia_matrix_euler
+from firmware_interface.emulator.geometry import coriolis_matrix, inertia_matrix_euler, mat_vec
+
+
+@flight_code
+def position_step(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray, vel_cmd: np.ndarray,
+                  acc_cmd: np.ndarray, m: float, g: float, k1: float, k2: float) -> tuple[np.ndarray, np.ndarray]:
+    """(thrust force NED in N, e2) of the position loop."""
+    e1 = pos_ned - pos_cmd
+    e2 = vel_ned - (vel_cmd - k1 * e1)
+    accel = acc_cmd - k1 * (e2 - k1 * e1) - e1 - k2 * e2
+    return m * (accel - g * E3), e2
+
+
+@flight_code
+def attitude_step(eta: np.ndarray, eta_dot: np.ndarray, eta_cmd: np.ndarray, eta_s_dot: np.ndarray,
+                  eta_s_ddot: np.ndarray, inertia: np.ndarray, k3: float, k4: float) -> np.ndarray:
+    """Body torque (FRD, N·m) of the attitude loop, τ_η mapped through W⁻ᵀ."""
+    a1 = angle_error(eta, eta_cmd)
+    a2 = eta_dot - (eta_s_dot - k3 * a1)
+    eta_ddot = eta_s_ddot - k3 * (a2 - k3 * a1) - a1 - k4 * a2
+    tau = (mat_vec(inertia_matrix_euler(inertia, eta), eta_ddot)
+           + mat_vec(coriolis_matrix(inertia, eta, eta_dot), eta_dot))
+    return body_torque(tau, eta)
 
 
 class BacksteppingGains(ControllerGains):
@@ -52,25 +74,14 @@ class Backstepping:
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
         k, g, m = self.gains, self.nominal.g, self.nominal.mass
-        e1 = state.pos_ned - setpoint.pos_ned
-        e2 = state.vel_ned - (setpoint.vel_ned - k.k1 * e1)
-        accel = setpoint.acc_ned - k.k1 * (e2 - k.k1 * e1) - e1 - k.k2 * e2
-        force = m * (accel - g * E3)
-        roll_cmd, pitch_cmd, uz = attitude_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g)
-        eta_cmd = np.array((roll_cmd, pitch_cmd, setpoint.yaw))
-        thrust = collective_thrust(uz, state.eta[0], state.eta[1])
-
+        force, e2 = position_step(state.pos_ned, state.vel_ned, setpoint.pos_ned, setpoint.vel_ned, setpoint.acc_ned,
+                                  m, g, k.k1, k.k2)
+        eta_cmd, thrust = command_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g, state.eta)
         _, eta_s_dot, eta_s_ddot = self.differentiator.update(eta_cmd, dt)
-        eta_dot = state.eta_dot
-        a1 = angle_error(state.eta, eta_cmd)
-        a2 = eta_dot - (eta_s_dot - k.k3 * a1)
-        eta_ddot = eta_s_ddot - k.k3 * (a2 - k.k3 * a1) - a1 - k.k4 * a2
-        inertia = self.nominal.inertia
-        tau = (inertia_matrix_euler(inertia, state.eta) @ eta_ddot
-               + coriolis_matrix(inertia, state.eta, eta_dot) @ eta_dot)
+        torque = attitude_step(state.eta, state.eta_dot, eta_cmd, eta_s_dot, eta_s_ddot, self.nominal.inertia,
+                               k.k3, k.k4)
         internals = {"e2_x": e2[0], "e2_y": e2[1], "e2_z": e2[2], "thrust_n": thrust}
-        return ControlOutput(thrust, body_torque(tau, state.eta), eta_cmd, internals)
-
+        return ControlOutput(thrust, torque, eta_cmd, internals)
 
 PLUGIN = ControllerPlugin(Backstepping, BacksteppingGains, param_prefix="BS",
                           runtime_gains=("k1", "k2", "k3", "k4"))

@@ -13,6 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
+from firmware_interface.emulator.compiled import flight_code, shared_maths
 from firmware_interface.emulator.geometry import body_from_euler_torque, euler_rates, wrap_pi
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
 
@@ -72,6 +73,7 @@ class Nominal:
     g: float = STANDARD_GRAVITY_M_S2
 
 
+@shared_maths
 def attitude_from_force(force_ned: np.ndarray, yaw: float, max_tilt: float,
                         min_lift: float) -> tuple[float, float, float]:
     """Commanded roll, pitch and vertical force u_z for a desired thrust force (eqs. 26–29).
@@ -90,22 +92,35 @@ def attitude_from_force(force_ned: np.ndarray, yaw: float, max_tilt: float,
     return roll, pitch, uz
 
 
+@shared_maths
 def collective_thrust(uz: float, roll: float, pitch: float) -> float:
     """u1 = u_z / (cos θ cos γ) with the current attitude (the paper's actual control input)."""
     return uz / max(math.cos(roll) * math.cos(pitch), 0.5)
 
 
+@flight_code
+def command_from_force(force_ned: np.ndarray, yaw: float, max_tilt: float, min_lift: float,
+                       eta: np.ndarray) -> tuple[np.ndarray, float]:
+    """(η_cmd, u1): the attitude that points the thrust along `force_ned` and the collective thrust that gives
+    its vertical part at the present attitude η."""
+    roll_cmd, pitch_cmd, uz = attitude_from_force(force_ned, yaw, max_tilt, min_lift)
+    return np.array((roll_cmd, pitch_cmd, yaw)), collective_thrust(uz, eta[0], eta[1])
+
+
+@shared_maths
 def angle_error(eta: np.ndarray, eta_cmd: np.ndarray) -> np.ndarray:
     e = eta - eta_cmd
     e[2] = wrap_pi(e[2])
     return e
 
 
+@shared_maths
 def sat(x: np.ndarray, boundary: float) -> np.ndarray:
     """The saturation function that replaces sgn inside a boundary layer."""
     return np.clip(x / boundary, -1.0, 1.0)
 
 
+@shared_maths
 def body_torque(tau_euler: np.ndarray, eta: np.ndarray) -> np.ndarray:
     """The paper's τ lives in Euler coordinates (J η̈ + C η̇ = τ); the rotors apply τ_body = W⁻ᵀ τ."""
     return body_from_euler_torque(eta, tau_euler)

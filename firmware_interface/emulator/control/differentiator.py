@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from firmware_interface.emulator.compiled import flight_code
+
 
 def _expm(a: np.ndarray) -> np.ndarray:
     """Matrix exponential by scaling and squaring of a Taylor series (3x3, well-conditioned here)."""
@@ -23,6 +25,16 @@ def _expm(a: np.ndarray) -> np.ndarray:
     for _ in range(squarings):
         result = result @ result
     return result
+
+
+@flight_code
+def step_exact(a_d: np.ndarray, b_d: np.ndarray, z: np.ndarray, v: np.ndarray) -> None:
+    """z ← A_d z + B_d vᵀ in place (each column of z one channel)."""
+    for channel in range(z.shape[1]):
+        value, first, second = z[0, channel], z[1, channel], z[2, channel]
+        for row in range(3):
+            z[row, channel] = (a_d[row, 0] * value + a_d[row, 1] * first + a_d[row, 2] * second
+                               + b_d[row] * v[channel])
 
 
 class ThirdOrderDifferentiator:
@@ -45,7 +57,7 @@ class ThirdOrderDifferentiator:
         augmented[:3, :3] = self._a * dt
         augmented[:3, 3] = self._b * dt
         exact = _expm(augmented)
-        self._ad, self._bd, self._dt = exact[:3, :3], exact[:3, 3], dt
+        self._ad, self._bd, self._dt = exact[:3, :3].copy(), exact[:3, 3].copy(), dt
 
     def update(self, v: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if not self._started:
@@ -55,5 +67,5 @@ class ThirdOrderDifferentiator:
         elif dt > 0:
             if dt != self._dt:
                 self._discretise(dt)
-            self.z = self._ad @ self.z + np.outer(self._bd, v)
+            step_exact(self._ad, self._bd, self.z, np.asarray(v, dtype=np.float64))
         return self.z[0].copy(), self.z[1].copy(), self.z[2].copy()

@@ -18,6 +18,7 @@ import math
 import numpy as np
 from pydantic import Field
 
+from firmware_interface.emulator.compiled import flight_code
 from firmware_interface.emulator.control.attitude import SlidingModeAttitude
 from firmware_interface.emulator.control.base import (
     E3,
@@ -25,10 +26,33 @@ from firmware_interface.emulator.control.base import (
     Nominal,
     Setpoint,
     VehicleState,
-    attitude_from_force,
-    collective_thrust,
+    command_from_force,
 )
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
+from firmware_interface.emulator.geometry import dot
+
+
+@flight_code
+def position_law(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray, vel_cmd: np.ndarray,
+                 acc_cmd: np.ndarray, m_hat: float, d_hat: np.ndarray, s1_filtered: np.ndarray, g: float, c1: float,
+                 lambda1: float, gamma1: float, gamma2: float, d_max: float, mass_min: float, mass_max: float,
+                 filter_s: float, deadzone: float, adapt: bool, dt: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(u_s, S1, m̂) of eqs. 7–9, with d̂_s and the filtered S1 advanced in place (eqs. 13, 14, 18)."""
+    e = pos_ned - pos_cmd
+    e_dot = vel_ned - vel_cmd
+    s1 = e_dot + lambda1 * e  # eq. 7
+    u_bar = -g * E3 + acc_cmd - lambda1 * e_dot - c1 * s1  # eq. 9
+    force = m_hat * u_bar - d_hat  # eq. 8
+
+    alpha = min(dt / filter_s, 1.0) if filter_s > 0 else 1.0
+    s1_filtered += alpha * (s1 - s1_filtered)
+    if adapt and np.sqrt(dot(s1_filtered, s1_filtered)) > deadzone:
+        d_hat[:] = np.clip(d_hat + dt * gamma1 * s1_filtered, -d_max, d_max)  # eq. 13
+        m_rate = -gamma2 * dot(s1_filtered, u_bar)  # eq. 14
+        if (m_hat >= mass_max and m_rate > 0) or (m_hat <= mass_min and m_rate < 0):
+            m_rate = 0.0  # projection (eq. 18)
+        m_hat = min(max(m_hat + dt * m_rate, mass_min), mass_max)
+    return force, s1, m_hat
 
 
 class SmarcGains(ControllerGains):
@@ -76,25 +100,11 @@ class Smarc:
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
         k, g = self.gains, self.nominal.g
-        e = state.pos_ned - setpoint.pos_ned
-        e_dot = state.vel_ned - setpoint.vel_ned
-        self.s1 = e_dot + k.lambda1 * e
-        u_bar = -g * E3 + setpoint.acc_ned - k.lambda1 * e_dot - k.c1 * self.s1
-        force = self.m_hat * u_bar - self.d_hat
-
-        alpha = min(dt / k.adaptation_filter_s, 1.0) if k.adaptation_filter_s > 0 else 1.0
-        self.s1_filtered += alpha * (self.s1 - self.s1_filtered)
-        s1 = self.s1_filtered
-        if adapt and float(np.linalg.norm(s1)) > k.adaptation_deadzone:
-            self.d_hat = np.clip(self.d_hat + dt * k.gamma1 * s1, -k.d_max, k.d_max)
-            m_rate = -k.gamma2 * float(s1 @ u_bar)
-            if (self.m_hat >= k.mass_max and m_rate > 0) or (self.m_hat <= k.mass_min and m_rate < 0):
-                m_rate = 0.0  # projection (eq. 18)
-            self.m_hat = min(max(self.m_hat + dt * m_rate, k.mass_min), k.mass_max)
-
-        roll_cmd, pitch_cmd, uz = attitude_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * self.m_hat * g)
-        eta_cmd = np.array((roll_cmd, pitch_cmd, setpoint.yaw))
-        thrust = collective_thrust(uz, state.eta[0], state.eta[1])
+        force, self.s1, self.m_hat = position_law(
+            state.pos_ned, state.vel_ned, setpoint.pos_ned, setpoint.vel_ned, setpoint.acc_ned, self.m_hat, self.d_hat,
+            self.s1_filtered, g, k.c1, k.lambda1, k.gamma1, k.gamma2, k.d_max, k.mass_min, k.mass_max,
+            k.adaptation_filter_s, k.adaptation_deadzone, adapt, dt)
+        eta_cmd, thrust = command_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * self.m_hat * g, state.eta)
         torque = self.attitude.update(state, eta_cmd, dt)
         internals = {"m_hat": self.m_hat, "d_hat_x": self.d_hat[0], "d_hat_y": self.d_hat[1],
                      "d_hat_z": self.d_hat[2], "s1_x": self.s1[0], "s1_y": self.s1[1], "s1_z": self.s1[2],

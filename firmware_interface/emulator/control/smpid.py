@@ -16,6 +16,7 @@ import math
 import numpy as np
 from pydantic import Field
 
+from firmware_interface.emulator.compiled import flight_code
 from firmware_interface.emulator.control.attitude import SlidingModeAttitude
 from firmware_interface.emulator.control.base import (
     E3,
@@ -24,11 +25,27 @@ from firmware_interface.emulator.control.base import (
     Setpoint,
     VehicleState,
     angle_error,
-    attitude_from_force,
-    collective_thrust,
+    command_from_force,
     sat,
 )
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
+
+
+@flight_code
+def position_law(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray, vel_cmd: np.ndarray,
+                 acc_cmd: np.ndarray, z_integral: float, m: float, g: float, kp_z: float, kd_z: float, ki_z: float,
+                 integral_limit: float, lambda_xy: float, c_xy: float, epsilon_xy: float, boundary: float,
+                 adapt: bool, dt: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(thrust force NED in N, S of x and y, ∫e_z): PID on z, sliding mode on x and y."""
+    e = pos_ned - pos_cmd
+    e_dot = vel_ned - vel_cmd
+    if adapt:
+        z_integral = min(max(z_integral + e[2] * dt, -integral_limit), integral_limit)
+    a_z = acc_cmd[2] - kp_z * e[2] - kd_z * e_dot[2] - ki_z * z_integral
+    s_xy = e_dot[:2] + lambda_xy * e[:2]
+    a_xy = acc_cmd[:2] - lambda_xy * e_dot[:2] - c_xy * s_xy - epsilon_xy * sat(s_xy, boundary)
+    force = m * (np.array((a_xy[0], a_xy[1], a_z)) - g * E3)
+    return force, s_xy, z_integral
 
 
 class SmpidGains(ControllerGains):
@@ -77,19 +94,10 @@ class SlidingModePid:
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
         k, g, m = self.gains, self.nominal.g, self.nominal.mass
-        e = state.pos_ned - setpoint.pos_ned
-        e_dot = state.vel_ned - setpoint.vel_ned
-        if adapt:
-            self.z_integral = float(np.clip(self.z_integral + e[2] * dt, -k.integral_limit, k.integral_limit))
-        a_z = setpoint.acc_ned[2] - k.kp_z * e[2] - k.kd_z * e_dot[2] - k.ki_z * self.z_integral
-        self.s_xy = e_dot[:2] + k.lambda_xy * e[:2]
-        a_xy = (setpoint.acc_ned[:2] - k.lambda_xy * e_dot[:2] - k.c_xy * self.s_xy
-                - k.epsilon_xy * sat(self.s_xy, k.boundary_layer))
-        force = m * (np.array((a_xy[0], a_xy[1], a_z)) - g * E3)
-
-        roll_cmd, pitch_cmd, uz = attitude_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g)
-        eta_cmd = np.array((roll_cmd, pitch_cmd, setpoint.yaw))
-        thrust = collective_thrust(uz, state.eta[0], state.eta[1])
+        force, self.s_xy, self.z_integral = position_law(
+            state.pos_ned, state.vel_ned, setpoint.pos_ned, setpoint.vel_ned, setpoint.acc_ned, self.z_integral, m, g,
+            k.kp_z, k.kd_z, k.ki_z, k.integral_limit, k.lambda_xy, k.c_xy, k.epsilon_xy, k.boundary_layer, adapt, dt)
+        eta_cmd, thrust = command_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g, state.eta)
         torque = self.attitude.update(state, eta_cmd, dt)
         # yaw is fully actuated: replace the sliding mode yaw torque by a PID on the yaw error
         e_yaw = angle_error(state.eta, eta_cmd)[2]

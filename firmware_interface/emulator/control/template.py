@@ -3,7 +3,7 @@
 registered); tests/test_controller_conformance.py checks it as it checks every registered one.
 
 Position: a = ζ̈_c − kp (ζ − ζ_c) − kd (ζ̇ − ζ̇_c), thrust force m (a − g e3) in NED
-Attitude: the tilt and collective of that force (base.attitude_from_force), then
+Attitude: the tilt and collective of that force (base.command_from_force), then
           τ = J (−kp_att e_η − kd_att η̇) in Euler coordinates, applied as body torques.
 """
 
@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from pydantic import Field
 
 from firmware_interface.emulator.control.base import (
@@ -21,9 +20,8 @@ from firmware_interface.emulator.control.base import (
     Setpoint,
     VehicleState,
     angle_error,
-    attitude_from_force,
     body_torque,
-    collective_thrust,
+    command_from_force,
 )
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
 
@@ -53,9 +51,7 @@ class CascadedPd:
         k, m, g = self.gains, self.nominal.mass, self.nominal.g
         e = state.pos_ned - setpoint.pos_ned
         accel = setpoint.acc_ned - k.kp * e - k.kd * (state.vel_ned - setpoint.vel_ned)
-        roll_cmd, pitch_cmd, uz = attitude_from_force(m * (accel - g * E3), setpoint.yaw, k.max_tilt, 0.2 * m * g)
-        eta_cmd = np.array((roll_cmd, pitch_cmd, setpoint.yaw))
-        thrust = collective_thrust(uz, state.eta[0], state.eta[1])
+        eta_cmd, thrust = command_from_force(m * (accel - g * E3), setpoint.yaw, k.max_tilt, 0.2 * m * g, state.eta)
         tau = self.nominal.inertia * (-k.kp_att * angle_error(state.eta, eta_cmd) - k.kd_att * state.eta_dot)
         internals = {"e_x": e[0], "e_y": e[1], "e_z": e[2], "thrust_n": thrust}
         return ControlOutput(thrust, body_torque(tau, state.eta), eta_cmd, internals)

@@ -1,0 +1,76 @@
+"""The emulator's compiled flight code (firmware_interface/emulator/compiled.py): compiled once, loaded after,
+and compiled afresh when any of its sources changes."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from firmware_interface.emulator import compiled
+
+ROOT = Path(__file__).resolve().parent.parent
+
+# Flies every registered controller for 2 s on the estimator and the plant FMU (tests/closed_loop.py), then
+# prints numba's cache counters summed over every compiled function of the flight code.
+FLY_AND_COUNT = """
+import json, sys
+import numba
+from firmware_interface.emulator import compiled, estimator, mixer
+from firmware_interface.emulator.config import build_config
+from firmware_interface.emulator.control import attitude, backstepping, base, differentiator, smarc, smpid
+from firmware_interface.emulator.control.registry import CONTROLLERS
+from hil.sensors import SensorsConfig
+from tests.closed_loop import PAPER_PLANT, hover, fly
+
+for name in CONTROLLERS:
+    fly(build_config({"controller": name, "airframe": "paper_airframe"}), PAPER_PLANT, hover((0.0, 0.0, -5.0)),
+        2.0, start=(0.0, 0.0, -5.0), sensors=SensorsConfig())
+modules = (estimator, mixer, attitude, backstepping, base, differentiator, smarc, smpid)
+laws = {f"{m.__name__}.{n}": f for m in modules for n, f in vars(m).items()
+        if isinstance(f, numba.core.registry.CPUDispatcher) and f.__module__ == m.__name__}
+print(json.dumps({"cache_dir": str(compiled.cache_dir()),
+                  "hits": {n: sum(f.stats.cache_hits.values()) for n, f in laws.items()},
+                  "misses": {n: sum(f.stats.cache_misses.values()) for n, f in laws.items()}}))
+"""
+
+
+def fly_and_count(cache_home: Path) -> dict:
+    env = os.environ | {"XDG_CACHE_HOME": str(cache_home)}
+    result = subprocess.run([sys.executable, "-c", FLY_AND_COUNT], cwd=ROOT, env=env, capture_output=True,
+                            text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+    return json.loads(result.stdout.splitlines()[-1])
+
+
+@pytest.mark.slow
+def test_the_first_process_compiles_the_flight_code_and_the_next_one_loads_it(tmp_path):
+    first = fly_and_count(tmp_path)
+    assert len(first["misses"]) >= 10  # the estimator's two steps, the mixer's two, every control law
+    assert Path(first["cache_dir"]).is_relative_to(tmp_path) and any(Path(first["cache_dir"]).iterdir())
+    compiled_here = {law for law, misses in first["misses"].items() if misses}
+    assert len(compiled_here) >= 10 and not any(first["hits"].values())
+    second = fly_and_count(tmp_path)
+    assert not any(second["misses"].values())  # nothing compiled again
+    loaded = {law for law, hits in second["hits"].items() if hits}  # a law only called by another comes with it
+    assert loaded <= compiled_here and len(loaded) >= 9
+
+
+def test_the_cache_is_named_after_every_flight_code_source(tmp_path, monkeypatch):
+    """numba would only notice a change in the calling function's own file; a change of a helper anywhere in
+    the emulator's sources must give compiled code of its own."""
+    package = tmp_path / "emulator"
+    shutil.copytree(compiled.FLIGHT_CODE, package, ignore=shutil.ignore_patterns("__pycache__"))
+    monkeypatch.setattr(compiled, "FLIGHT_CODE", package)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    before = compiled.cache_dir()
+    assert before.parent == tmp_path / "cache" / "hil-bench"
+    assert compiled.cache_dir() == before  # the same sources, the same compiled code
+    helper = package / "geometry.py"
+    helper.write_text(helper.read_text().replace("return (angle + math.pi)", "return (angle + 1.0 * math.pi)"))
+    assert compiled.cache_dir() != before
