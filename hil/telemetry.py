@@ -98,6 +98,11 @@ def open_session(options: ZenohOptions) -> zenoh.Session:
         config.insert_json5("listen/endpoints", json.dumps(options.listen))
     if not options.multicast_scouting:
         config.insert_json5("scouting/multicast/enabled", "false")
+    elif not options.config_file:
+        # Zenoh's open waits 0.5 s for multicast scouting to find peers before it returns; a peer on this machine
+        # answers within ~1 ms (a subscriber already running missed only the first of 1 kHz samples put right
+        # after an open without the wait), and one that joins later gets the run from then on, as always
+        config.insert_json5("scouting/delay", "0")
     return zenoh.open(config)
 
 

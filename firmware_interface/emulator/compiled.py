@@ -19,22 +19,23 @@ out (`geometry.mat_vec`, `geometry.dot`), since numba's `@` needs a BLAS it does
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 from collections.abc import Callable
+from importlib.metadata import version
 from pathlib import Path
+from types import ModuleType
 from typing import Any, TypeVar, cast
-
-import numba
-from numba.extending import register_jitable
 
 F = TypeVar("F", bound=Callable[..., Any])
 FLIGHT_CODE = Path(__file__).resolve().parent  # the emulator package: every source a compiled law can reach
+_SHARED: list[Callable[..., Any]] = []  # `shared_maths` functions, made known to numba before the first compile
 
 
 def cache_dir() -> Path:
     """Where the compiled flight code of these exact sources lives (XDG cache, ~/.cache by default)."""
-    digest = hashlib.sha256(numba.__version__.encode())
+    digest = hashlib.sha256(version("numba").encode())
     for source in sorted(FLIGHT_CODE.rglob("*.py")):
         digest.update(source.relative_to(FLIGHT_CODE).as_posix().encode())
         digest.update(source.read_bytes())
@@ -42,28 +43,56 @@ def cache_dir() -> Path:
     return root / "hil-bench" / f"flight-code-{digest.hexdigest()[:16]}"
 
 
-# read when each `flight_code` function is decorated (numba sets its config attributes at run time)
-numba.config.CACHE_DIR = str(cache_dir())  # type: ignore[attr-defined]
+@functools.cache
+def _numba() -> ModuleType:
+    """numba, imported and set up at the first compiled call: the `hil` commands that fly nothing never load
+    it (~0.2 s of start-up)."""
+    import numba
+    from numba.extending import register_jitable
+
+    numba.config.CACHE_DIR = str(cache_dir())  # type: ignore[attr-defined]  # numba sets its config at run time
+    for function in _SHARED:
+        register_jitable(function)
+    return numba
 
 
-_COMPILED: list[Any] = []  # every `flight_code` function, for `freeze`
+class FlightCode:
+    """A function compiled by numba at its first call (or loaded from the disk cache); called from Python."""
+
+    def __init__(self, function: Callable[..., Any]) -> None:
+        functools.update_wrapper(self, function)
+        self.py_func = function
+        self.dispatcher: Any = None  # numba's, once compiled
+
+    def __call__(self, *args: Any) -> Any:
+        dispatcher = self.dispatcher
+        if dispatcher is None:
+            dispatcher = self.dispatcher = _numba().njit(cache=True)(self.py_func)
+        return dispatcher(*args)
+
+
+COMPILED: list[FlightCode] = []  # every `flight_code` function (for `freeze`, and the tests)
 
 
 def flight_code(function: F) -> F:
-    """`function` compiled on its first call (or loaded from the disk cache), with the same signature."""
-    compiled = numba.njit(cache=True)(function)
-    _COMPILED.append(compiled)
+    """`function` compiled on its first call, with the same signature. Compiled code cannot call it: a helper
+    that compiled code calls is `shared_maths`."""
+    compiled = FlightCode(function)
+    COMPILED.append(compiled)
     return cast(F, compiled)
+
+
+def shared_maths(function: F) -> F:
+    """`function` as it is for Python callers, compiled inline into the flight code that calls it."""
+    _SHARED.append(function)
+    if _numba.cache_info().currsize:  # defined after the first compile: known to numba at once
+        _numba().extending.register_jitable(function)
+    return function
 
 
 def freeze() -> None:
     """No more compiling in this process of what has been compiled: a call with argument types not seen yet
     raises TypeError. (Functions never called, another controller's, stay as they are.)"""
-    for compiled in _COMPILED:
-        if compiled.signatures:
-            compiled.disable_compile()
-
-
-def shared_maths(function: F) -> F:
-    """`function` as it is for Python callers, compiled inline into the flight code that calls it."""
-    return register_jitable(function)
+    for compiled in COMPILED:
+        if compiled.dispatcher is not None and compiled.dispatcher.signatures:
+            compiled.dispatcher.disable_compile()

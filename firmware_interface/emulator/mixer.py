@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from firmware_interface.emulator.compiled import flight_code
+from firmware_interface.emulator.compiled import flight_code, shared_maths
 from firmware_interface.emulator.config import NominalVehicle
 
 # rotor (x, y) signs in FRD and spin (+1 CCW), PX4 quad X: 1 FR, 2 RL, 3 FL, 4 RR
@@ -22,7 +22,7 @@ _Y = np.array((1.0, -1.0, -1.0, 1.0))
 _SPIN = np.array((1.0, 1.0, -1.0, -1.0))
 
 
-@flight_code
+@shared_maths
 def rotor_thrusts(inverse: np.ndarray, t_max: float, reversible: bool, thrust_n: float,
                   torque_frd: np.ndarray) -> np.ndarray:
     """Rotor thrusts (N) for a collective thrust and body torques, `inverse` the inverted effectiveness matrix."""
