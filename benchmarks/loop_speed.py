@@ -50,8 +50,10 @@ def helix_file(quick: bool, scratch: Path) -> Path:
 
 def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path, quick: bool) -> dict[str, Any]:
     """Every row once, back to back; real-time factors, the HITL run's pacing, and the bench breakdowns."""
-    rtf: dict[str, float] = {"reference": minimal_simulator(sitl, scratch / "min",
-                                                            QUICK_MINIMAL_SIM_S if quick else MINIMAL_SIM_S)}
+    reference_rtf, reference_cpu_us = minimal_simulator(sitl, scratch / "min",
+                                                        QUICK_MINIMAL_SIM_S if quick else MINIMAL_SIM_S)
+    rtf: dict[str, float] = {"reference": reference_rtf}
+    board_cpu: dict[str, float] = {"reference": reference_cpu_us}
     breakdown: dict[str, dict[str, float]] = {}
     runs = {"px4 hover": (files["hover"], ["--px4", str(sitl.root)]), "hover": (files["hover"], []),
             "gust": (files["gust"], [])}
@@ -61,11 +63,11 @@ def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path,
         timing = run_metrics(scenario, extra, scratch / name.replace(" ", "_"), accept_exits=(0, 1))["timing"]
         rtf[name] = timing["realtime_factor"]
         breakdown[name] = timing["breakdown_us_per_step"]
+        board_cpu[name] = timing["board_cpu_us_per_step"]
     paced = run_metrics(files["hover"], ["--px4-hitl", str(hitl)], scratch / "hitl", accept_exits=(0, 1))["timing"]
-    return {"rtf": rtf, "breakdown": breakdown, "pacing": {"p99": paced["period_jitter_us"]["p99"],
-                                                           "max": paced["period_jitter_us"]["max"],
-                                                           "late": paced["late_steps"],
-                                                           "detail": paced["late_steps_detail"]}}
+    pacing = {"p99": paced["period_jitter_us"]["p99"], "max": paced["period_jitter_us"]["max"],
+              "late": paced["late_steps"], "detail": paced["late_steps_detail"]}
+    return {"rtf": rtf, "breakdown": breakdown, "board_cpu": board_cpu, "pacing": pacing}
 
 
 def builds(args: Any, scratch: Path) -> tuple[Px4Build, Path]:
@@ -155,6 +157,10 @@ def print_breakdowns(rounds: list[dict[str, Any]], floor_us: float, python_us: f
     for part in rounds[0]["breakdown"]["gust"]:
         row = [statistics.median(r["breakdown"][n][part] for r in rounds) for n in names]
         print(f"  {part:<24}" + "".join(f"{v:>14.1f}" for v in row))
+    cpu = {n: statistics.median(r["board_cpu"][n] for r in rounds) for n in ("reference", *names)}
+    print("the board's own CPU per step (us, all its threads; it computes this much of wait_for_board):")
+    print(f"  {'board CPU':<24}" + "".join(f"{cpu[n]:>14.1f}" for n in names)
+          + f"   (PX4 in the reference: {cpu['reference']:.1f})")
 
 
 def main() -> int:

@@ -35,13 +35,15 @@ HOME = (47.397742, 8.545594, 488.0)
 MAG_FRD_T = (2.16e-5, 0.13e-5, 4.28e-5)  # roughly the earth field at PX4's default home, vehicle facing north
 
 
-def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> float:
-    """PX4 SITL stepped by the simplest simulator there is for `sim_s`; returns simulated s per wall s."""
+def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> tuple[float, float]:
+    """PX4 SITL stepped by the simplest simulator there is for `sim_s`; returns simulated s per wall s and
+    PX4's own CPU µs per step (measured as the bench measures its board's, `timing.board_cpu_us_per_step`)."""
     handle = start_px4_sitl(build, scratch, watchdog_s=2.0)
     session = handle.session
     rng = np.random.default_rng(1)
     dt_us = 1_000_000 // RATE_HZ
     steps = int(sim_s * RATE_HZ)
+    cpu_start_s = handle.cpu_s() or 0.0  # the bench's own figure starts here too: at its first step
     try:
         t_us = 0
         started = None
@@ -60,7 +62,10 @@ def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> float:
             if started is None and session.lockstep:
                 started, t0_us = time.perf_counter(), t_us
         assert started is not None, "PX4 never entered lockstep"
-        return (t_us - t0_us) * 1e-6 / (time.perf_counter() - started)
+        rtf = (t_us - t0_us) * 1e-6 / (time.perf_counter() - started)
+        cpu_s = handle.cpu_s()
+        assert cpu_s is not None, "PX4's CPU time is unreadable (/proc)"
+        return rtf, (cpu_s - cpu_start_s) / steps * 1e6
     finally:
         handle.close()
 
@@ -82,19 +87,24 @@ def main() -> int:
             return 2
         hover = scenario_file("hover", args.quick, scratch)
         minimal, bench, breakdowns = [], [], []
+        px4_cpu: dict[str, list[float]] = {"minimal": [], "bench": []}
         for round_no in range(rounds):
-            minimal.append(minimal_simulator(build, scratch / f"min{round_no}",
-                                             QUICK_MINIMAL_SIM_S if args.quick else MINIMAL_SIM_S))
+            rtf, cpu_us = minimal_simulator(build, scratch / f"min{round_no}",
+                                            QUICK_MINIMAL_SIM_S if args.quick else MINIMAL_SIM_S)
+            minimal.append(rtf)
+            px4_cpu["minimal"].append(cpu_us)
             metrics = run_metrics(hover, ["--px4", str(build.root)], scratch / f"bench{round_no}" / "runs")
             bench.append(metrics["timing"]["realtime_factor"])
             breakdowns.append(metrics["timing"]["breakdown_us_per_step"])
+            px4_cpu["bench"].append(metrics["timing"]["board_cpu_us_per_step"])
             print(f"round {round_no + 1}: PX4 + minimal simulator {minimal[-1]:.1f}x, "
                   f"hil run hover --px4 {bench[-1]:.1f}x")
     ref, ours = statistics.median(minimal), statistics.median(bench)
+    cpu = {name: statistics.median(values) for name, values in px4_cpu.items()}
     print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {rounds} rounds")
-    print(f"{'run':<52} {'real-time factor':>16} {'ratio':>7}")
-    print(f"{'PX4 v1.15.4 SITL + minimal simulator':<52} {ref:>15.1f}x {1.0:>7.2f}")
-    print(f"{'hil run scenarios/hover.yaml --px4 DIR':<52} {ours:>15.1f}x {ours / ref:>7.2f}")
+    print(f"{'run':<52} {'real-time factor':>16} {'ratio':>7}  PX4's own CPU per step")
+    print(f"{'PX4 v1.15.4 SITL + minimal simulator':<52} {ref:>15.1f}x {1.0:>7.2f}  {cpu['minimal']:.0f} us")
+    print(f"{'hil run scenarios/hover.yaml --px4 DIR':<52} {ours:>15.1f}x {ours / ref:>7.2f}  {cpu['bench']:.0f} us")
     print("\nbench per step (us, median over rounds):")
     for key in breakdowns[0]:
         print(f"  {key:<26} {statistics.median(b[key] for b in breakdowns):8.1f}")

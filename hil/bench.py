@@ -172,7 +172,8 @@ class Bench:
 
     # --- the run -----------------------------------------------------------------
     def run(self) -> RunResult:
-        start_wall = self._started = time.perf_counter()
+        self._started = time.perf_counter()
+        board_cpu_s = self.board.cpu_s()
         reason, code = "completed", int(EXIT_OK)
         try:
             paced = realtime_priority(self.board.realtime_pids()) if self.realtime else nullcontext("")
@@ -195,8 +196,7 @@ class Bench:
             reason, code = f"internal error {self.when()}: {type(exc).__name__}: {exc}", EXIT_INTERNAL
         finally:
             self._flush_pending()
-            self.metrics.wall_s = time.perf_counter() - start_wall
-            self.metrics.sim_s = self.t_us * 1e-6
+            self._account_time(board_cpu_s)
             self.plant.close()
         metrics = self.metrics.compute(self.board.session.link.counters, self.realtime, self.dt)
         metrics["phase_reached"] = str(self.phase)
@@ -225,6 +225,14 @@ class Bench:
         self.events.append((self.t_us, text))
         if self.on_event is not None:
             self.on_event(self.t_us, text)
+
+    def _account_time(self, board_cpu_at_start_s: float | None) -> None:
+        """Wall and simulated time of the run, and the CPU its board's process used meanwhile."""
+        self.metrics.wall_s = time.perf_counter() - self._started
+        self.metrics.sim_s = self.t_us * 1e-6
+        board_cpu_s = self.board.cpu_s()
+        if board_cpu_at_start_s is not None and board_cpu_s is not None:
+            self.metrics.board_cpu_s = board_cpu_s - board_cpu_at_start_s
 
     def _fly(self) -> None:
         handlers = {Phase.PREFLIGHT: self._preflight, Phase.OFFBOARD: self._offboard, Phase.TAKEOFF: self._takeoff,
@@ -438,19 +446,21 @@ class Bench:
         """Wait for the step's wall-clock deadline; returns the deadline kept. After a stall longer than
         REALTIME_SLIP_S the schedule slips instead of catching up: a burst of steps would hand the board
         a burst of sensor frames and let the plant run many steps on one stale actuator reply, while a
-        slip is a pause both sides see as one late frame."""
-        now = time.perf_counter()
-        if now > deadline + self.dt:
-            self.metrics.add_late(self.t_us, now - deadline, self._timer.longest)
-        if now > deadline + REALTIME_SLIP_S:
-            self.metrics.add_slip(now - deadline)
-            deadline = now
-        remaining = deadline - now
+        slip is a pause both sides see as one late frame. Lateness is taken when the step starts, so a sleep
+        that overslept counts as much as a step before it that ran long."""
+        remaining = deadline - time.perf_counter()
         if remaining > 0.0005:
             time.sleep(remaining - 0.0003)
         while time.perf_counter() < deadline:
             pass
-        self.metrics.add_step_start(time.perf_counter(), self.dt)
+        started = time.perf_counter()
+        behind = started - deadline
+        if behind > self.dt:
+            self.metrics.add_late(self.t_us, behind, self._timer.longest)
+        if behind > REALTIME_SLIP_S:
+            self.metrics.add_slip(behind)
+            deadline = started
+        self.metrics.add_step_start(started, self.dt)
         return deadline
 
     # --- one step -----------------------------------------------------------------

@@ -24,6 +24,7 @@ from firmware_interface.link import (
 )
 from hil.gcs import GcsBridge
 from hil.lifetime import die_with_parent
+from hil.process_cpu import cpu_seconds
 from hil.px4 import Px4Build, Px4Process, claim_instance
 from hil.px4.hitl_startup import write_hitl_startup
 from hil.rt_priority import board_on_its_own_core
@@ -44,6 +45,8 @@ SITL_HINT = ("is PX4 SITL running? Start it (in PX4-Autopilot: make px4_sitl non
 
 
 class BoardProcess(Protocol):
+    popen: subprocess.Popen[bytes]
+
     def stop(self) -> None: ...
 
     def exit_note(self) -> str | None: ...
@@ -93,6 +96,10 @@ class BoardHandle:
         """The board's processes a paced run raises to real-time priority with the bench: the emulator's
         (a PX4 keeps the scheduling it gives its own tasks)."""
         return [self.process.popen.pid] if isinstance(self.process, EmulatorProcess) else []
+
+    def cpu_s(self) -> float | None:
+        """CPU seconds the board's process has used, when the bench started it (None for a board attached)."""
+        return cpu_seconds(self.process.popen.pid) if self.process is not None else None
 
     def exit_note(self) -> str | None:
         """Why the board's process ended, when the bench started it and it is gone (a board failure's cause)."""

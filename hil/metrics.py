@@ -52,6 +52,7 @@ class MetricsCollector:
         0.0))
     sim_s: float = 0.0
     wall_s: float = 0.0
+    board_cpu_s: float | None = None  # CPU the board's process used while the bench stepped (one it started)
     mission_steps: int = 0
     _last_step_start: float | None = None
     _final_estimates: dict[str, float] | None = None
@@ -125,6 +126,8 @@ class MetricsCollector:
             "sim_s": self.sim_s, "wall_s": wall, "realtime_factor": self.sim_s / wall if wall > 0 else None,
             "step_wall_us": self.step_wall.summary(1e6), "round_trip_us": self.round_trip.summary(1e6),
             "breakdown_us_per_step": {k: v / max(self.steps, 1) * 1e6 for k, v in self.breakdown_s.items()},
+            "board_cpu_us_per_step": (self.board_cpu_s / self.steps * 1e6
+                                      if self.board_cpu_s is not None and self.steps else None),
         }
         if realtime and self.period_error.n:
             result["timing"]["period_jitter_us"] = self.period_error.summary(1e6)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -14,3 +15,13 @@ def run(scenario: Path, runs: Path, *extra: str, timeout: float = 600) -> tuple[
     result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs), *extra],
                             capture_output=True, text=True, cwd=ROOT, timeout=timeout)
     return result, max(runs.iterdir())
+
+
+def wait_flying(runs: Path, timeout_s: float = 60.0) -> None:
+    """Until frames flow between the bench and its emulator (the run's link.tlog has its first 64 KiB block:
+    ~1 s simulated), then one more second: past the preflight (~2.5 s simulated, at several times real time)."""
+    deadline = time.monotonic() + timeout_s
+    while not any(p.stat().st_size > 0 for p in runs.glob("*/link.tlog")):
+        assert time.monotonic() < deadline, f"no MAVLink frame in {runs} after {timeout_s:g} s"
+        time.sleep(0.05)
+    time.sleep(1.0)

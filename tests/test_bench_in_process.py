@@ -5,6 +5,7 @@ no subprocess: a failure here points at the loop itself."""
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -93,3 +94,31 @@ def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_s
     assert result.exit_code == EXIT_BOARD and result.reason.startswith("board/link failure")
     assert frames[-1].mission_t == pytest.approx(1.0, abs=0.1)  # the loop stopped where the board did
     assert np.all(np.diff([f.t_us for f in frames]) == 4000)
+
+
+def test_a_paced_step_that_starts_late_because_its_sleep_overslept_counts_as_late(tmp_path, board_for, monkeypatch):
+    """Wall-clock pacing: the sleep before a mission step oversleeps (as a stalled machine makes it), once by
+    9 ms and once by 30 ms. The loop sleeps to 0.3 ms before a deadline and spins, so those steps start ~8.7
+    and ~29.7 ms after their deadlines, more than the 4 ms period: late steps, that far behind. 9 ms is caught
+    up (the next step is late too, then none); 30 ms is over the 20 ms slip, so the schedule goes on from the
+    late step: one slip, and the steps after it on time."""
+    scenario = hover(tmp_path, 2.0)
+    board_for.append(board := ThreadBoard(scenario))
+    frames: list[StepFrame] = []
+    real_sleep, stalls = time.sleep, {0.5: 0.009, 1.2: 0.030}
+
+    def sleep(seconds: float) -> None:
+        due = [t for t in stalls if frames and frames[-1].phase == "mission" and frames[-1].mission_t > t]
+        if due and threading.current_thread() is threading.main_thread():
+            seconds += stalls.pop(due[0])
+        real_sleep(seconds)
+
+    monkeypatch.setattr(time, "sleep", sleep)
+    result = Bench(scenario, board.handle, realtime=True, sinks=[frames.append]).run()
+    assert result.exit_code == EXIT_OK and not stalls
+    timing = result.metrics["timing"]
+    late = [(d["t_s"], d["behind_ms"]) for d in timing["late_steps_detail"]]
+    assert any(8.5 <= ms < 12.0 for _, ms in late) and any(29.5 <= ms < 35.0 for _, ms in late), late
+    t_slip = next(t for t, ms in late if 29.5 <= ms < 35.0)
+    assert [t for t, _ in late if t_slip < t <= t_slip + 0.05] == []  # no burst to catch up after the slip
+    assert timing["slips"]["count"] >= 1, late

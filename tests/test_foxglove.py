@@ -12,7 +12,6 @@ import json
 import math
 import os
 import signal
-import socket
 import struct
 import subprocess
 import sys
@@ -33,6 +32,7 @@ from mcap.stream_reader import StreamReader
 
 from hil.foxglove_live import MAX_WALL_HZ
 from hil.foxglove_messages import ENU_FROM_NED_WXYZ
+from tests.ports import free_port
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -40,12 +40,6 @@ ROOT = Path(__file__).resolve().parent.parent
 # The Foxglove WebSocket protocol: foxglove-sdk's server speaks it under its current name, the Foxglove app
 # offers both names; the messages are those of foxglove.websocket.v1.
 SUBPROTOCOLS = ["foxglove.websocket.v1", "foxglove.sdk.v1"]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def hover_file(tmp_path: Path, seconds: float) -> Path:

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from tests.cli_runs import run
+from tests.cli_runs import run, wait_flying
 from tests.recording_digest import (
     CHECKSUMS,
     numeric_platform,
@@ -62,6 +62,16 @@ def test_shipped_scenario_flies_bit_for_bit_as_before_the_last_refactor(scenario
         f"{scenario.stem} no longer flies bit for bit as at {recorded['recorded_at_revision']}")
 
 
+def test_the_emulators_own_cpu_per_step_is_measured_and_within_the_step(shipped_flight):
+    """The board's CPU share of a lockstep step: a one-threaded emulator cannot use more CPU than the wall
+    time of the steps it answered, and reading, decoding, estimating, controlling, encoding and writing a step
+    in Python take more than 5 us."""
+    _, run_dir = shipped_flight(ROOT / "scenarios" / "hover.yaml")
+    timing = json.loads((run_dir / "metrics.json").read_text())["timing"]
+    steps = round(timing["sim_s"] * 250)
+    assert 5.0 < timing["board_cpu_us_per_step"] < timing["wall_s"] / steps * 1e6
+
+
 def short_hover(tmp_path: Path, seconds: float = 3.0) -> Path:
     path = tmp_path / "short.yaml"
     path.write_text(f"name: short\nduration_s: {seconds}\nseed: 4\nreference: {{type: hover, altitude_m: 3}}\n"
@@ -105,10 +115,7 @@ def test_killing_the_emulator_mid_run_exits_3_quickly_with_the_recording_intact(
     runs = tmp_path / "runs"
     proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not _children(proc.pid):
-        time.sleep(0.1)
-    time.sleep(4.0)  # airborne by now (preflight ~2.5 s of simulated time at several times real time)
+    wait_flying(runs)
     emulator = _children(proc.pid)[0]
     os.kill(emulator, signal.SIGKILL)
     killed = time.monotonic()
@@ -128,10 +135,7 @@ def test_ctrl_c_exits_130_and_says_so_in_the_summary(tmp_path):
     runs = tmp_path / "runs"
     proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(short_hover(tmp_path, 120.0)),
                              "--runs", str(runs)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and not _children(proc.pid):
-        time.sleep(0.1)
-    time.sleep(3.0)
+    wait_flying(runs)
     proc.send_signal(signal.SIGINT)
     proc.wait(30)
     assert proc.returncode == 130

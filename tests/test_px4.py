@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -25,6 +24,7 @@ from pyulog import ULog
 
 from hil.telemetry import ZenohOptions, subscribe
 from tests.mavsdk_client import read_telemetry
+from tests.ports import free_port
 from tests.px4_builds import px4_build, px4_root
 from tests.summary_text import summary_field
 
@@ -189,12 +189,6 @@ def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
     ended = summary_field(result.stdout, "ended")
     assert "did not arm" in ended and "Arming denied" in ended
     assert not processes_using(tmp_path / "runs")
-
-
-def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.ports import free_port
 from tests.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
@@ -22,12 +23,6 @@ def hil_run(*args: str, runs: Path) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", *args,
                            "--runs", str(runs), "--no-telemetry"],
                           capture_output=True, text=True, timeout=120, cwd=ROOT)
-
-
-def free_port(kind: int = socket.SOCK_STREAM) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def test_a_px4_sitl_that_is_not_running_gets_a_sitl_error(tmp_path):

@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import math
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -19,6 +18,7 @@ from hil.sweep import SweepError, load_sweep
 from hil.sweep.design import Sample, samples, scenario_data, set_path
 from hil.sweep.results import flight_metrics, make_row, read_parquet
 from hil.sweep.spec import SweepSpec
+from tests.ports import free_port
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -29,12 +29,6 @@ SHORT_HOVER = ROOT / "tests" / "data" / "short_hover.yaml"
 def hil(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "hil.cli", *args], capture_output=True, text=True, cwd=ROOT,
                           timeout=timeout)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def tiny_sweep(tmp_path: Path, samples_: int = 3, extra: str = "") -> Path:
@@ -119,15 +113,15 @@ def _rerun_alone(row: dict, tmp_path: Path) -> dict:
 
 
 def short_monte_carlo(folder: Path) -> Path:
-    """The shipped gust Monte Carlo (its design, draws and crossing unchanged) on a 10 s mission 5 m up (a
-    short climb and landing), the gust at 3 s and the payload at 6 s: the chain and the bookkeeping are what
+    """The shipped gust Monte Carlo (its design, draws and crossing unchanged) on a 6 s mission 3 m up (a
+    short climb and landing), the gust at 2 s and the payload at 4 s: the chain and the bookkeeping are what
     the tests check, and 40 full 25 s samples at 12 m take ~8 min of CI (docs/sweeps.md has the full
     sweep's figures)."""
     spec = yaml.safe_load((ROOT / "sweeps" / "gust_monte_carlo.yaml").read_text())
     spec["scenario"] = str(ROOT / "scenarios" / "gust.yaml")
-    gust = {**spec["overrides"]["wind.gusts"][0], "start_s": 3}
-    spec["overrides"] |= {"duration_s": 10, "reference.altitude_m": 5, "wind.gusts": [gust],
-                          "payload": [{"t_s": 6, "mass_kg": 0.0}]}
+    gust = {**spec["overrides"]["wind.gusts"][0], "start_s": 2}
+    spec["overrides"] |= {"duration_s": 6, "reference.altitude_m": 3, "wind.gusts": [gust],
+                          "payload": [{"t_s": 4, "mass_kg": 0.0}]}
     path = folder / "gust_monte_carlo_short.yaml"
     path.write_text(yaml.safe_dump(spec, sort_keys=False))
     return path

@@ -7,7 +7,6 @@ import os
 import pty
 import select
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -17,16 +16,16 @@ from pathlib import Path
 import pytest
 
 from hil.telemetry import DEFAULT_RATES_HZ, ZenohOptions, fetch_meta, open_session
+from tests.cli_runs import wait_flying
+from tests.ports import free_port, wait_listening
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def endpoint_port(endpoint: str) -> int:
+    return int(endpoint.rsplit(":", 1)[1])
 
 
 def scenario_file(tmp_path: Path, duration: float = 4.0, altitude: float = 3.0) -> Path:
@@ -48,7 +47,7 @@ def test_a_subscriber_in_another_process_gets_every_channel_at_its_rate(tmp_path
     with open(lines_path, "wb") as sink:  # a file, not a pipe: a full pipe would block the subscriber
         echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
                                 stdout=sink, stderr=subprocess.DEVNULL, cwd=ROOT)
-        time.sleep(2.0)  # listening: the bench connects to it when it opens its session
+        wait_listening(endpoint_port(endpoint))  # the bench connects to it when it opens its session
         run = bench(scenario_file(tmp_path, duration=20.0), tmp_path / "runs", endpoint, connect=True)
         assert run.wait(300) == 0, run.stderr.read()
         time.sleep(1.0)
@@ -117,7 +116,7 @@ def watch_on_a_terminal(endpoint: str, listen: bool = False) -> tuple[subprocess
                             env={**os.environ, "COLUMNS": "120", "LINES": "40", "TERM": "xterm"})
     os.close(slave)
     if listen:
-        time.sleep(2.0)  # listening before the bench starts
+        wait_listening(endpoint_port(endpoint))  # listening before the bench starts
     return proc, master
 
 
@@ -130,7 +129,7 @@ def test_hil_watch_shows_the_run_on_a_terminal_and_exits_with_it(tmp_path, watch
         run = bench(scenario_file(tmp_path, 30.0), tmp_path / "runs", endpoint, connect=True)
     else:
         run = bench(scenario_file(tmp_path, 30.0), tmp_path / "runs", endpoint)
-        time.sleep(2.5)  # the run is flying (it lasts ~8 s of wall time)
+        wait_flying(tmp_path / "runs")  # the run lasts ~8 s of wall time
         proc, master = watch_on_a_terminal(endpoint)
     screen = b""
     ended = None
@@ -155,11 +154,11 @@ def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
         # before a watcher started after it has joined
         watcher = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-listen", endpoint],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
-        time.sleep(1.5)
+        wait_listening(endpoint_port(endpoint))
         run = bench(scenario_file(tmp_path, duration=60.0 if ctrl_c else 0.5, altitude=1.0), tmp_path / f"r{i}",
                     endpoint, connect=True)
         if ctrl_c:
-            time.sleep(4.0)
+            wait_flying(tmp_path / f"r{i}")
             run.send_signal(signal.SIGINT)
             watcher.send_signal(signal.SIGINT)
             stopped = time.monotonic()
@@ -181,7 +180,7 @@ def test_a_stopped_subscriber_does_not_hold_up_the_end_of_a_run(tmp_path):
     scenario.write_text("name: stall\nduration_s: 2\nreference: {type: hover, altitude_m: 2}\nend: disarm\n")
     echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
-    time.sleep(2.0)
+    wait_listening(endpoint_port(endpoint))
     try:
         for attempt in range(10):
             runs = tmp_path / f"runs{attempt}"
