@@ -37,13 +37,10 @@ QUICK_HELIX_S = 3.0  # with --quick: 3 s of the helix, without the mass steps (a
 TARGETS = {"gust": 2.0, "px4 hover": 0.9, "helix": 10.0, "pacing p99": 200.0}
 
 
-def helix_file(quick: bool, scratch: Path) -> Path:
-    shipped = ROOT / "scenarios" / "paper_helix.yaml"
-    if not quick:
-        return shipped
-    data = yaml.safe_load(shipped.read_text())
-    data["duration_s"], data["payload"] = QUICK_HELIX_S, []
-    short = scratch / shipped.name
+def quick_copy(scenario: Path, scratch: Path, **overrides: Any) -> Path:
+    """`scenario` with `overrides` (top-level fields), written into `scratch` for a --quick run."""
+    data = yaml.safe_load(scenario.read_text()) | overrides
+    short = scratch / f"quick_{scenario.name}"
     short.write_text(yaml.safe_dump(data, sort_keys=False))
     return short
 
@@ -176,7 +173,8 @@ def main() -> int:
             print(f"loop_speed: {exc}", file=sys.stderr)
             return 2
         files = {name: scenario_file(name, args.quick, scratch) for name in ("hover", "gust")}
-        files["helix"] = helix_file(args.quick, scratch)
+        helix = ROOT / "scenarios" / "paper_helix.yaml"
+        files["helix"] = quick_copy(helix, scratch, duration_s=QUICK_HELIX_S, payload=[]) if args.quick else helix
         first_gust = first_run(files["gust"], scratch)
         rounds = []
         for k in range(1 if args.quick else args.rounds):

@@ -224,6 +224,8 @@ def timing_rows(metrics: dict[str, Any]) -> list[list[str]]:
              f"in {timing['wall_s']:.2f} s)"],
             ["step wall time", _percentiles(timing.get("step_wall_us"))],
             ["sensor → actuator round trip", _percentiles(timing.get("round_trip_us"))]]
+    if timing.get("board_cpu_us_per_step") is not None:
+        rows.append(["the board's own CPU per step", f"{timing['board_cpu_us_per_step']:.0f} µs"])
     if "period_jitter_us" in timing:
         jitter = _percentiles(timing["period_jitter_us"])
         rows.append(["step period jitter", f"{jitter}, late steps {timing.get('late_steps', 0)}{slip_note(timing)}"])

@@ -17,11 +17,12 @@ def run(scenario: Path, runs: Path, *extra: str, timeout: float = 600) -> tuple[
     return result, max(runs.iterdir())
 
 
-def wait_flying(runs: Path, timeout_s: float = 60.0) -> None:
+def wait_flying(runs: Path, then_s: float = 1.0, timeout_s: float = 60.0) -> None:
     """Until frames flow between the bench and its emulator (the run's link.tlog has its first 64 KiB block:
-    ~1 s simulated), then one more second: past the preflight (~2.5 s simulated, at several times real time)."""
+    ~1 s simulated), then `then_s` more: with 1 s, past the preflight (~2.5 s simulated, at several times real
+    time) and in the air."""
     deadline = time.monotonic() + timeout_s
     while not any(p.stat().st_size > 0 for p in runs.glob("*/link.tlog")):
         assert time.monotonic() < deadline, f"no MAVLink frame in {runs} after {timeout_s:g} s"
         time.sleep(0.05)
-    time.sleep(1.0)
+    time.sleep(then_s)

@@ -158,7 +158,7 @@ def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
         run = bench(scenario_file(tmp_path, duration=60.0 if ctrl_c else 0.5, altitude=1.0), tmp_path / f"r{i}",
                     endpoint, connect=True)
         if ctrl_c:
-            wait_flying(tmp_path / f"r{i}")
+            wait_flying(tmp_path / f"r{i}", then_s=0.2)  # mid-run: what ends is a run in progress
             run.send_signal(signal.SIGINT)
             watcher.send_signal(signal.SIGINT)
             stopped = time.monotonic()
