@@ -121,6 +121,7 @@ class BoardSession:
         self.wait_for_replies = True  # False: never wait for a reply, as with a real board (injected link faults)
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
+        self._truth_ahead: bytes | None = None  # a HIL_STATE_QUATERNION frame for the next step's write
         self._last_heartbeat_sent = -1e9
         self._text_chunks: dict[int, list[str]] = {}
         self._last_rx = clock()
@@ -268,6 +269,14 @@ class BoardSession:
             self.link.send_fields("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
         return True
 
+    def send_ground_truth_ahead(self, truth: codec.GroundTruth) -> None:
+        """HIL_STATE_QUATERNION for PX4 SITL, built now (while the board computes) and written first in the next
+        step's frame. PX4 only logs it (its `*_groundtruth` topics), stamped with its lockstep clock when it
+        reads it: ahead of the next HIL_SENSOR that clock is still this truth's time; in the same write as this
+        step's HIL_SENSOR it was read a step early. Never for a real board, as `send_ground_truth`."""
+        if self.kind is not BoardKind.HITL:
+            self._truth_ahead = self.link.encode("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
+
     def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                  truth: codec.GroundTruth | codec.LocalTruth | None = None) -> codec.ActuatorOutputs | None:
         """One bench step: `send_step`, then `await_reply`."""
@@ -277,6 +286,9 @@ class BoardSession:
     def send_step(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                   truth: codec.GroundTruth | codec.LocalTruth | None = None) -> None:
         """Send this step's sensors; the reply to wait for is the one echoing `readings.t_us`."""
+        if self._truth_ahead is not None:  # first: it was numbered before anything else in this write
+            self.link.send_frame(self._truth_ahead)
+            self._truth_ahead = None
         self.service(readings.t_us * 1e-6 if self.lockstep else None)
         self.send_sensors(readings, gps, truth)
         self._awaited_t_us = readings.t_us

@@ -127,9 +127,10 @@ class Bench:
         self.link_faults = self._inject_link_faults(rng.spawn(1)[0]) if scenario.faults.link else []
         self._disarmed_in_flight_since: float | None = None
         self._failsafe_texts: list[tuple[float, str]] = []
-        # the emulator flying on the truth gets it at float precision (ODOMETRY); PX4 SITL gets HIL_STATE_QUATERNION
+        # the emulator flying on the truth gets it with the sensors at float precision (ODOMETRY); PX4 SITL
+        # gets HIL_STATE_QUATERNION for its log, a step behind (`BoardSession.send_ground_truth_ahead`)
         self.exact_truth = board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth"
-        self.send_truth = board.kind is BoardKind.SITL or self.exact_truth
+        self.truth_for_log = board.kind is BoardKind.SITL
         self.t_us = 0
         self.phase = Phase.PREFLIGHT
         self._phase_since_s = 0.0
@@ -146,6 +147,7 @@ class Bench:
         self.events: list[tuple[int, str]] = []
         self._started = time.perf_counter()
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
+        self._pending_inbox: list[Message] = []  # its board messages, decoded then too (off the board's wait)
         self._timer = StepTimer(self.metrics.breakdown_s)
         self.plant = Plant(parameters)  # last: from here on `run` closes it, whatever happens
         try:
@@ -492,52 +494,74 @@ class Bench:
         round_trip = t_reply - sent if session.lockstep else None
         if actuators is not None:
             self.motors, self.armed = actuators.motors, actuators.armed
-        board = self._board_messages(state)
-        frame = StepFrame(self.t_us, mission_t, self.phase, state, reference, readings, gps, self.motors, self.armed,
-                          env, board, time.perf_counter() - timer.started, round_trip)
-        self._pending = frame
+        self._pending = StepFrame(self.t_us, mission_t, self.phase, state, reference, readings, gps, self.motors,
+                                  self.armed, env, [], time.perf_counter() - timer.started, round_trip)
+        self._pending_inbox = self._take_inbox()
+        self._board_texts(self._pending_inbox)
         timer.lap("frame")
 
     def _send_step(self, reference: RefSample | None, readings: codec.SensorReadings, gps: codec.GpsFix | None,
                    state: PlantState) -> None:
-        """Setpoint first, then sensors, in one write: the board flies this step; then what may overlap the
-        board's computation (command bookkeeping, the ground-station relay, the previous step's sinks)."""
-        session = self.board.session
+        """This step's frame out first, in one write; then what may overlap the board's computation: PX4's
+        command link (the setpoint, its messages, our heartbeat), the ground-station relay, the previous
+        step's board messages and sinks. A board with one link (the emulator, a serial board) gets the setpoint
+        in that write, ahead of the sensors, and flies it this step. PX4 SITL reads its command link on a
+        thread of its own, so a setpoint there never had a defined order against the sensor frame; it goes
+        after, and the board waits for nothing but its sensors."""
+        session, commands = self.board.session, self.board.commands
         session.link.begin_batch()
-        if reference is not None:  # on this step's setpoint whatever the scheduling (and deterministically)
-            offset = self.board_offset_ned if self.board_offset_ned is not None else 0.0
-            self.board.commands.send_setpoint(self.t_us // 1000, tuple(reference.pos_ned + offset),
-                                              tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
-        session.send_step(readings, gps, self._ground_truth(state) if self.send_truth else None)
+        if reference is not None and commands is session:
+            self._send_setpoint(reference)
+        session.send_step(readings, gps, self._local_truth(state) if self.exact_truth else None)
         session.link.flush()
-        if self.board.commands is not session:
-            self.board.commands.service(self.t_us * 1e-6 if session.lockstep else None)
+        self._timer.lap("encode_and_send")
+        if self.truth_for_log:
+            session.send_ground_truth_ahead(self._ground_truth(state))
+        if commands is not session:
+            if reference is not None:
+                self._send_setpoint(reference)
+            commands.poll(0.0)
+            commands.service(self.t_us * 1e-6 if session.lockstep else None)
         if self.board.gcs is not None:
             self._relay_gcs()
-        self._timer.lap("encode_and_send")
-        self._flush_pending()  # the previous step's sinks run while the board computes this one
-        self._timer.lap("sinks_of_previous_step")
+        self._timer.lap("command_link_and_relay")
+        self._flush_pending()
+        self._timer.lap("previous_step_messages_and_sinks")
 
-    def _board_messages(self, state: PlantState) -> list[tuple[str, dict[str, Any]]]:
-        """The board's messages of this step, decoded; its texts become events and its estimates (during the
-        mission) are scored against the true `state`."""
-        board = [p for p in (decode_board_message(m) for m in self._drain_inbox()) if p is not None]
+    def _send_setpoint(self, reference: RefSample) -> None:
+        """The reference in the board's own local frame (`board_offset_ned`, from arming on)."""
+        offset = self.board_offset_ned if self.board_offset_ned is not None else 0.0
+        self.board.commands.send_setpoint(self.t_us // 1000, tuple(reference.pos_ned + offset),
+                                          tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
+
+    def _board_messages(self, frame: StepFrame, messages: list[Message]) -> list[tuple[str, dict[str, Any]]]:
+        """The board's messages that came in `frame`'s step, decoded; its estimates (during the mission) are
+        scored against that step's true state."""
+        board = [p for p in (decode_board_message(m) for m in messages) if p is not None]
+        if frame.phase != Phase.MISSION:
+            return board
         for kind, payload in board:
-            if kind == "STATUSTEXT":
-                self._event(f"board: {payload['text']}")
-                if "failsafe" in payload["text"].lower():
-                    self._failsafe_texts.append((self.t_us * 1e-6, payload["text"]))
-            elif self.phase is not Phase.MISSION:
-                continue
-            elif kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None:
-                self.metrics.add_estimate_error(np.array(payload["pos_ned"]) - self.board_offset_ned - state.pos_ned)
+            if kind == "LOCAL_POSITION_NED" and self.board_offset_ned is not None:
+                self.metrics.add_estimate_error(np.array(payload["pos_ned"]) - self.board_offset_ned
+                                                - frame.truth.pos_ned)
             elif kind == "ATTITUDE":
-                self.metrics.add_attitude_estimate_error(np.array(payload["rpy"]) - state.rpy)
+                self.metrics.add_attitude_estimate_error(np.array(payload["rpy"]) - frame.truth.rpy)
         return board
 
+    def _board_texts(self, messages: list[Message]) -> None:
+        """The board's texts of this step as events, at once: the next step's phase may follow from them."""
+        for message in messages:
+            if message.get_type() == "STATUSTEXT":
+                self._event(f"board: {message.text}")
+                if "failsafe" in message.text.lower():
+                    self._failsafe_texts.append((self.t_us * 1e-6, message.text))
+
     def _flush_pending(self) -> None:
+        """The last step's frame, with its board messages decoded, to the metrics and the sinks."""
         frame, self._pending = self._pending, None
         if frame is not None:
+            frame.board = self._board_messages(frame, self._pending_inbox)
+            self._pending_inbox = []
             self.metrics.add(frame)
             for sink in self.sinks:
                 sink(frame)
@@ -553,20 +577,23 @@ class Bench:
         for frame in gcs.from_gcs():
             board.commands.link.send_frame(frame)
 
-    def _drain_inbox(self) -> list[Message]:
+    def _take_inbox(self) -> list[Message]:
+        """This step's messages from every link to the board, taken as they came (decoded later)."""
         messages = self.board.session.inbox
         self.board.session.inbox = []
         if self.board.commands is not self.board.session:
             messages += self.board.commands.inbox
             self.board.commands.inbox = []
-            self.board.commands.poll(0.0)
         return messages
 
-    def _ground_truth(self, state: PlantState) -> codec.GroundTruth | codec.LocalTruth:
+    def _local_truth(self, state: PlantState) -> codec.LocalTruth:
+        """The true state for the emulator's exact-state path (ODOMETRY, float precision)."""
+        return codec.LocalTruth(self.t_us, tuple(state.pos_ned.tolist()), tuple(state.vel_ned.tolist()),
+                                tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()))
+
+    def _ground_truth(self, state: PlantState) -> codec.GroundTruth:
+        """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log."""
         pos = state.pos_ned
-        if self.exact_truth:
-            return codec.LocalTruth(self.t_us, tuple(pos.tolist()), tuple(state.vel_ned.tolist()),
-                                    tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()))
         lat, lon, alt = self.home.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
         vel = state.vel_ned
         return codec.GroundTruth(self.t_us, tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()),

@@ -86,6 +86,7 @@ def test_ground_truth_never_goes_to_a_real_board():
     session.wait_heartbeat(2.0)
     for _ in range(20):
         session.exchange(READINGS, truth=TRUTH)
+        session.send_ground_truth_ahead(TRUTH)
     session.poll(0.2)
     assert "HIL_SENSOR" in scripted.received
     assert "HIL_STATE_QUATERNION" not in scripted.received

@@ -17,6 +17,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 from pymavlink import mavutil
@@ -83,7 +84,8 @@ def processes_using(path: Path) -> list[str]:
 def flight_log(run_dir: Path) -> ULog:
     logs = sorted((run_dir / "px4" / "log").rglob("*.ulg"))
     assert logs, f"PX4 wrote no ULog under {run_dir / 'px4' / 'log'}"
-    return ULog(str(logs[-1]), ["vehicle_status", "vehicle_land_detected", "vehicle_command_ack"])
+    return ULog(str(logs[-1]), ["vehicle_status", "vehicle_land_detected", "vehicle_command_ack",
+                                "vehicle_angular_velocity_groundtruth"])
 
 
 def first_after(t_us: Any, values: Any, wanted: int, after_us: int) -> int:
@@ -128,6 +130,7 @@ def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario)
     ulog = flight_log(run_dir)
     assert_px4_flew_the_whole_flight(ulog)
     assert_every_ack_reached_the_bench(ulog, run_dir)
+    assert_px4_logged_the_true_rates_at_their_own_time(ulog, run_dir)
     console = (run_dir / "px4.log").read_text()
     assert "Simulator connected" in console
     assert "poll timeout" not in console.split("Simulator connected", 1)[1]
@@ -138,6 +141,20 @@ def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario)
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert set(metrics["board_estimate_error_m"]) == {"x", "y", "z"}
     assert_px4_stopped_the_streams_the_bench_does_not_read(run_dir, metrics)
+
+
+def assert_px4_logged_the_true_rates_at_their_own_time(ulog: ULog, run_dir: Path) -> None:
+    """PX4 SITL logs HIL_STATE_QUATERNION's body rates as vehicle_angular_velocity_groundtruth, stamped with its
+    lockstep clock (the last HIL_SENSOR's time_usec) when it reads the message. Each logged sample must be the
+    bench's true rates at that very time, to float32 rounding (a step off is ~1e-2 rad/s in this flight)."""
+    logged = ulog.get_dataset("vehicle_angular_velocity_groundtruth").data
+    truth = {m["t_us"]: m["rates_frd"] for m in recorded(run_dir, "hil/state")}
+    pairs = [(np.array((x, y, z)), np.array(truth[int(t)]))
+             for t, x, y, z in zip(logged["timestamp"], logged["xyz[0]"], logged["xyz[1]"], logged["xyz[2]"],
+                                   strict=True) if int(t) in truth]
+    assert len(pairs) > 0.9 * len(logged["timestamp"]) > 1000  # 100 Hz over the flight, on the bench's steps
+    worst = max(float(np.abs(px4 - bench).max()) for px4, bench in pairs)
+    assert worst < 1e-6, f"PX4's logged ground truth is off the bench's truth at the same time by {worst:.2e} rad/s"
 
 
 def assert_px4_stopped_the_streams_the_bench_does_not_read(run_dir: Path, metrics: dict[str, Any]) -> None:

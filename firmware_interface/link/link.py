@@ -57,7 +57,11 @@ class Link:
         self.send_frame(self.encoder.encode(message_class(message), fields))
 
     def send_fields(self, message: str, fields: Mapping[str, Any]) -> None:
-        self.send_frame(self.encoder.encode(message_class(message), fields))
+        self.send_frame(self.encode(message, fields))
+
+    def encode(self, message: str, fields: Mapping[str, Any]) -> bytes:
+        """One frame of this link's sender, numbered now: for a frame built ahead of when it is sent."""
+        return self.encoder.encode(message_class(message), fields)
 
     def send_frame(self, frame: bytes) -> None:
         self.bytes_out += len(frame)
