@@ -54,7 +54,7 @@ class Link:
 
     def send(self, message: str, /, **fields: Any) -> None:
         """Send one message by name, e.g. `send("HEARTBEAT", type=2, ...)`."""
-        self.send_frame(self.encoder.encode(message_class(message), fields))
+        self.send_frame(self.encode(message, fields))
 
     def send_fields(self, message: str, fields: Mapping[str, Any]) -> None:
         self.send_frame(self.encode(message, fields))
