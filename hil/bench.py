@@ -49,6 +49,7 @@ from hil.scenario.schema import Scenario
 from hil.scenario.vehicles import plant_parameters
 from hil.sensors import SensorsConfig, SensorSuite, TrueState
 from hil.step_timer import StepTimer
+from hil.stop_signals import stop_requested
 from plant_fmu import Plant, PlantError, PlantState
 
 PREFLIGHT_TIMEOUT_S = 60.0  # simulated: PX4's GNSS checks alone need ~10 s of good data
@@ -244,6 +245,8 @@ class Bench:
         last_progress = time.perf_counter()
         total_s = self.plan.takeoff_s + self.plan.duration_s
         while self.phase is not Phase.DONE:
+            if (stop := stop_requested()) is not None:  # its KeyboardInterrupt was lost where it landed
+                raise KeyboardInterrupt(stop)
             now_s = self.t_us * 1e-6
             reference = handlers[self.phase](now_s)
             if self.phase is Phase.DONE:

@@ -44,6 +44,14 @@ class _Gate:
 
 
 _gate = _Gate()
+_first_stop: list[str] = []  # the first stop signal's reason while a run is under `stopped_by_signals`
+
+
+def stop_requested() -> str | None:
+    """The first stop signal's reason, if one came. The bench checks it every step: Python drops an exception
+    raised where it cannot propagate (a ctypes callback, a `__del__`), and a stop that landed there must still
+    stop the run."""
+    return _first_stop[0] if _first_stop else None
 
 
 def uninterrupted() -> _Gate:
@@ -66,6 +74,7 @@ def stopped_by_signals() -> Iterator[None]:
     def on_signal(signum: int, _frame: object) -> None:
         received.append(signum)
         if len(received) == 1:
+            _first_stop.append(_stop_reason(signum))
             if _gate.depth:
                 _gate.held = _stop_reason(signum)
                 return
@@ -82,5 +91,6 @@ def stopped_by_signals() -> Iterator[None]:
         yield
     finally:
         _gate.held = None
+        _first_stop.clear()
         for sig, handler in previous.items():
             signal.signal(sig, handler)

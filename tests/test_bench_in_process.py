@@ -4,6 +4,8 @@ no subprocess: a failure here points at the loop itself."""
 
 from __future__ import annotations
 
+import os
+import signal
 import threading
 import time
 from collections.abc import Iterator
@@ -18,10 +20,11 @@ from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
 from hil.bench import Bench
 from hil.connect import BoardHandle, emulator_config
-from hil.exit_codes import EXIT_BOARD, EXIT_OK
+from hil.exit_codes import EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
 from hil.frame import StepFrame
 from hil.scenario.loader import load_scenario
 from hil.scenario.schema import Scenario
+from hil.stop_signals import stopped_by_signals
 
 pytestmark = pytest.mark.slow  # a few seconds of flight in lockstep
 
@@ -94,6 +97,28 @@ def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_s
     assert result.exit_code == EXIT_BOARD and result.reason.startswith("board/link failure")
     assert frames[-1].mission_t == pytest.approx(1.0, abs=0.1)  # the loop stopped where the board did
     assert np.all(np.diff([f.t_us for f in frames]) == 4000)
+
+
+def test_a_stop_signal_whose_interrupt_is_swallowed_where_it_lands_still_ends_the_run(tmp_path, board_for):
+    """Python drops an exception raised where it cannot propagate (a ctypes callback such as the FMU's logger,
+    a `__del__`); a SIGTERM that lands there must still stop the run, at the next step."""
+    scenario = hover(tmp_path, 30.0, end="disarm")
+    board_for.append(board := ThreadBoard(scenario))
+    frames: list[StepFrame] = []
+
+    def swallowing_sink(frame: StepFrame) -> None:
+        frames.append(frame)
+        if frame.mission_t > 1.0 and frames[-2].mission_t <= 1.0:
+            try:
+                os.kill(os.getpid(), signal.SIGTERM)
+                time.sleep(0.05)  # the handler runs here, between bytecodes of this thread
+            except KeyboardInterrupt:
+                pass  # lost, as in a ctypes callback
+
+    with stopped_by_signals():
+        result = Bench(scenario, board.handle, realtime=False, sinks=[swallowing_sink]).run()
+    assert result.exit_code == EXIT_INTERRUPTED and result.reason == "interrupted (SIGTERM)"
+    assert frames[-1].mission_t == pytest.approx(1.0, abs=0.02)  # stopped within a step or two
 
 
 def test_a_paced_step_that_starts_late_because_its_sleep_overslept_counts_as_late(tmp_path, board_for, monkeypatch):
