@@ -15,6 +15,7 @@ from collections.abc import Callable
 from contextlib import nullcontext
 from dataclasses import dataclass
 from enum import StrEnum
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -41,7 +42,7 @@ from hil.flight_judge import FlightFailed, FlightJudge
 from hil.frame import StepFrame
 from hil.metrics import MetricsCollector
 from hil.rt_priority import frozen_heap, realtime_priority
-from hil.scenario.environment import Environment
+from hil.scenario.environment import Environment, EnvironmentSample
 from hil.scenario.expressions import EvaluationError
 from hil.scenario.mission import MissionPlan
 from hil.scenario.reference import RefSample
@@ -90,6 +91,17 @@ class RunAborted(RuntimeError):
         self.exit_code = exit_code
 
 
+@dataclass(frozen=True, slots=True)
+class Decision:
+    """What the phase decided for one step: the phase it flies in, the reference (None: no setpoint), the
+    mission time both are sampled at, and the environment the plant steps through."""
+
+    phase: Phase
+    reference: RefSample | None
+    mission_t: float
+    environment: EnvironmentSample
+
+
 @dataclass
 class RunResult:
     exit_code: int
@@ -132,6 +144,7 @@ class Bench:
         # gets HIL_STATE_QUATERNION for its log, a step behind (`BoardSession.send_ground_truth_ahead`)
         self.exact_truth = board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth"
         self.truth_for_log = board.kind is BoardKind.SITL
+        self.decides_early = board.commands is not board.session  # see `_step`
         self.t_us = 0
         self.phase = Phase.PREFLIGHT
         self._phase_since_s = 0.0
@@ -238,22 +251,17 @@ class Bench:
             self.metrics.board_cpu_s = board_cpu_s - board_cpu_at_start_s
 
     def _fly(self) -> None:
-        handlers = {Phase.PREFLIGHT: self._preflight, Phase.OFFBOARD: self._offboard, Phase.TAKEOFF: self._takeoff,
-                    Phase.MISSION: self._mission, Phase.LANDING: self._landing, Phase.DISARMING: self._disarming,
-                    Phase.GROUNDED: self._grounded}
         next_deadline = time.perf_counter()
         last_progress = time.perf_counter()
         total_s = self.plan.takeoff_s + self.plan.duration_s
+        decided: Decision | None = None  # made during the last step's wait (`decides_early`)
         while self.phase is not Phase.DONE:
             if (stop := stop_requested()) is not None:  # its KeyboardInterrupt was lost where it landed
                 raise KeyboardInterrupt(stop)
-            now_s = self.t_us * 1e-6
-            reference = handlers[self.phase](now_s)
-            if self.phase is Phase.DONE:
+            self._timer.start()
+            if decided is None and (decided := self._decide()) is None:
                 return
-            self._step(reference, self.mission_t)
-            if self.phase in FLYING:
-                self._advance_mission_clock()
+            decided = self._step(decided)
             if self.realtime:
                 next_deadline = self._sleep_until(next_deadline + self.dt)
             if self.progress is not None and time.perf_counter() - last_progress > 0.25:
@@ -261,6 +269,22 @@ class Bench:
                 flown = min(max(self.mission_t + self.plan.takeoff_s, 0.0), total_s)  # take-off and mission
                 self.progress(str(self.phase), self.t_us * 1e-6, flown / total_s,
                               self.t_us * 1e-6 / max(last_progress - self._started, 1e-9))
+
+    @cached_property
+    def _handlers(self) -> dict[Phase, Callable[[float], RefSample | None]]:
+        """Each phase's part of a step, from the bench's time: what it asks of the board, and the reference."""
+        return {Phase.PREFLIGHT: self._preflight, Phase.OFFBOARD: self._offboard, Phase.TAKEOFF: self._takeoff,
+                Phase.MISSION: self._mission, Phase.LANDING: self._landing, Phase.DISARMING: self._disarming,
+                Phase.GROUNDED: self._grounded}
+
+    def _decide(self) -> Decision | None:
+        """The phase's decision for the step from the bench's current time; None once the run is done."""
+        reference = self._handlers[self.phase](self.t_us * 1e-6)
+        if self.phase is Phase.DONE:
+            return None
+        environment = self.environment.sample(self.mission_t if self.phase in FLYING else -1.0)
+        self._timer.lap("phase_and_environment")
+        return Decision(self.phase, reference, self.mission_t, environment)
 
     def _advance_mission_clock(self) -> None:
         """One step on the mission clock: counted in integer µs, so it never drifts from the bench's."""
@@ -469,16 +493,18 @@ class Bench:
         return deadline
 
     # --- one step -----------------------------------------------------------------
-    def _step(self, reference: RefSample | None, mission_t: float) -> None:
-        timer = self._timer
-        timer.start()
-        session = self.board.session
+    def _step(self, decided: Decision) -> Decision | None:
+        """One step as `decided`: the plant, the sensors, the board's reply. With PX4 SITL (`decides_early`)
+        the phase decides the next step while PX4 computes this one, and that decision is returned (else
+        None): PX4's commands, ACKs and states come on a UDP link its own thread serves, so no step of ours
+        is the one they belong to, and its reply need not be in before the phase looks."""
+        timer, session = self._timer, self.board.session
         if not session.waits_for_replies:  # a board on its own clock: take the reply that came while we slept
             actuators = session.await_reply()
             if actuators is not None:
                 self.motors, self.armed = actuators.motors, actuators.armed
-        env = self.environment.sample(mission_t if self.phase in FLYING else -1.0)
-        timer.lap("environment")
+            timer.lap("frame")
+        env, mission_t = decided.environment, decided.mission_t
         self.plant.set_input_groups(self.motors, env.motor_health, env.wind_ned, env.force_ned, env.torque_frd,
                                     env.payload_kg)
         self.plant.step(self.dt)
@@ -491,17 +517,21 @@ class Bench:
         for faults in self.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = timer.lap("sensors")
-        self._send_step(reference, readings, gps, state)
+        self._send_step(decided.reference, readings, gps, state)
+        if decided.phase in FLYING:
+            self._advance_mission_clock()
+        early = self._decide() if self.decides_early else None
         actuators = session.await_reply()
         t_reply = timer.lap("wait_for_board")
         round_trip = t_reply - sent if session.lockstep else None
         if actuators is not None:
             self.motors, self.armed = actuators.motors, actuators.armed
-        self._pending = StepFrame(self.t_us, mission_t, self.phase, state, reference, readings, gps, self.motors,
-                                  self.armed, env, [], time.perf_counter() - timer.started, round_trip)
+        self._pending = StepFrame(self.t_us, mission_t, decided.phase, state, decided.reference, readings, gps,
+                                  self.motors, self.armed, env, [], time.perf_counter() - timer.started, round_trip)
         self._pending_inbox = self._take_inbox()
         self._board_texts(self._pending_inbox)
         timer.lap("frame")
+        return early
 
     def _send_step(self, reference: RefSample | None, readings: codec.SensorReadings, gps: codec.GpsFix | None,
                    state: PlantState) -> None:

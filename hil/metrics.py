@@ -48,7 +48,7 @@ class MetricsCollector:
     slipped_s: float = 0.0
     steps: int = 0
     breakdown_s: dict[str, float] = field(default_factory=lambda: dict.fromkeys(
-        ("environment", "plant", "sensors", "encode_and_send", "command_link_and_relay",
+        ("phase_and_environment", "plant", "sensors", "encode_and_send", "command_link_and_relay",
          "previous_step_messages_and_sinks", "wait_for_board", "frame"),
         0.0))
     sim_s: float = 0.0
