@@ -26,3 +26,10 @@ def wait_flying(runs: Path, then_s: float = 1.0, timeout_s: float = 60.0) -> Non
         assert time.monotonic() < deadline, f"no MAVLink frame in {runs} after {timeout_s:g} s"
         time.sleep(0.05)
     time.sleep(then_s)
+
+
+def emulator_pids(bench_pid: int) -> list[int]:
+    """The bench's emulator process, by its command line: not just any child, because the bench's own start-up
+    runs short-lived ones (fmpy's import runs `ldconfig -p`, through ctypes.util.find_library)."""
+    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(bench_pid)], capture_output=True, text=True).stdout
+    return [int(line.split(None, 1)[0]) for line in out.splitlines() if "firmware_interface.emulator" in line]

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from tests.cli_runs import run, wait_flying
+from tests.cli_runs import emulator_pids, run, wait_flying
 from tests.recording_digest import (
     CHECKSUMS,
     numeric_platform,
@@ -106,18 +106,13 @@ def test_recording_opens_with_the_mcap_reader_and_has_every_channel_at_full_rate
     assert counts["hil/reference"] > 0 and counts["hil/board/heartbeat"] > 0 and counts["hil/events"] >= 5
 
 
-def _children(pid: int) -> list[int]:
-    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True).stdout
-    return [int(p) for p in out.split()]
-
-
 def test_killing_the_emulator_mid_run_exits_3_quickly_with_the_recording_intact(tmp_path):
     scenario = short_hover(tmp_path, seconds=120.0)
     runs = tmp_path / "runs"
     proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     wait_flying(runs)
-    emulator = _children(proc.pid)[0]
+    (emulator,) = emulator_pids(proc.pid)
     os.kill(emulator, signal.SIGKILL)
     killed = time.monotonic()
     proc.wait(30)

@@ -20,6 +20,7 @@ from hil.frame import StepFrame
 from hil.runner import RunOptions, run_scenario
 from hil.scenario.loader import load_scenario
 from hil.stop_signals import stopped_by_signals, uninterrupted
+from tests.cli_runs import emulator_pids
 from tests.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
@@ -114,11 +115,6 @@ def test_an_attempt_that_never_connects_leaves_no_run_directory_unless_asked(tmp
             assert "no device /dev/ttyACM97" in (run_dir / "summary.txt").read_text()
 
 
-def _children(pid: int) -> list[int]:
-    out = subprocess.run(["ps", "-o", "pid=", "--ppid", str(pid)], capture_output=True, text=True).stdout
-    return [int(p) for p in out.split()]
-
-
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -134,9 +130,9 @@ def _signal_run(tmp_path: Path, signals: list[tuple[float, int]]) -> tuple[int, 
     # a mission far longer than any signal's delay, however fast the machine flies it: the signal ends it
     bench = hil_run(str(hover_file(tmp_path, 600.0)), "--runs", str(runs), "--no-telemetry", "--keep-failed")
     deadline = time.monotonic() + 60
-    while not _children(bench.pid) and time.monotonic() < deadline:
+    while not emulator_pids(bench.pid) and time.monotonic() < deadline:
         time.sleep(0.05)
-    children = _children(bench.pid)
+    children = emulator_pids(bench.pid)
     started = time.monotonic()
     for delay, signum in signals:
         time.sleep(max(0.0, started + delay - time.monotonic()))
