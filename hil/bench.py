@@ -144,7 +144,7 @@ class Bench:
         # gets HIL_STATE_QUATERNION for its log, a step behind (`BoardSession.send_ground_truth_ahead`)
         self.exact_truth = board.kind is BoardKind.EMULATOR and scenario.board.state_source == "truth"
         self.truth_for_log = board.kind is BoardKind.SITL
-        self.decides_early = board.commands is not board.session  # see `_step`
+        self.own_command_link = board.commands is not board.session  # PX4 SITL's UDP link (`_step`, `_send_step`)
         self.t_us = 0
         self.phase = Phase.PREFLIGHT
         self._phase_since_s = 0.0
@@ -254,7 +254,7 @@ class Bench:
         next_deadline = time.perf_counter()
         last_progress = time.perf_counter()
         total_s = self.plan.takeoff_s + self.plan.duration_s
-        decided: Decision | None = None  # made during the last step's wait (`decides_early`)
+        decided: Decision | None = None  # made during the last step's wait (`own_command_link`)
         while self.phase is not Phase.DONE:
             if (stop := stop_requested()) is not None:  # its KeyboardInterrupt was lost where it landed
                 raise KeyboardInterrupt(stop)
@@ -494,7 +494,7 @@ class Bench:
 
     # --- one step -----------------------------------------------------------------
     def _step(self, decided: Decision) -> Decision | None:
-        """One step as `decided`: the plant, the sensors, the board's reply. With PX4 SITL (`decides_early`)
+        """One step as `decided`: the plant, the sensors, the board's reply. With PX4 SITL (`own_command_link`)
         the phase decides the next step while PX4 computes this one, and that decision is returned (else
         None): PX4's commands, ACKs and states come on a UDP link its own thread serves, so no step of ours
         is the one they belong to, and its reply need not be in before the phase looks."""
@@ -520,7 +520,7 @@ class Bench:
         self._send_step(decided.reference, readings, gps, state)
         if decided.phase in FLYING:
             self._advance_mission_clock()
-        early = self._decide() if self.decides_early else None
+        early = self._decide() if self.own_command_link else None
         actuators = session.await_reply()
         t_reply = timer.lap("wait_for_board")
         round_trip = t_reply - sent if session.lockstep else None
@@ -543,14 +543,14 @@ class Bench:
         after, and the board waits for nothing but its sensors."""
         session, commands = self.board.session, self.board.commands
         session.link.begin_batch()
-        if reference is not None and commands is session:
+        if reference is not None and not self.own_command_link:
             self._send_setpoint(reference)
         session.send_step(readings, gps, self._local_truth(state) if self.exact_truth else None)
         session.link.flush()
         self._timer.lap("encode_and_send")
         if self.truth_for_log:
             session.send_ground_truth_ahead(self._ground_truth(state))
-        if commands is not session:
+        if self.own_command_link:
             if reference is not None:
                 self._send_setpoint(reference)
             commands.poll(0.0)
@@ -614,7 +614,7 @@ class Bench:
         """This step's messages from every link to the board, taken as they came (decoded later)."""
         messages = self.board.session.inbox
         self.board.session.inbox = []
-        if self.board.commands is not self.board.session:
+        if self.own_command_link:
             messages += self.board.commands.inbox
             self.board.commands.inbox = []
         return messages

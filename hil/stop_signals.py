@@ -74,11 +74,12 @@ def stopped_by_signals() -> Iterator[None]:
     def on_signal(signum: int, _frame: object) -> None:
         received.append(signum)
         if len(received) == 1:
-            _first_stop.append(_stop_reason(signum))
+            reason = _stop_reason(signum)
+            _first_stop.append(reason)
             if _gate.depth:
-                _gate.held = _stop_reason(signum)
+                _gate.held = reason
                 return
-            raise KeyboardInterrupt(_stop_reason(signum))
+            raise KeyboardInterrupt(reason)
         if len(received) == 2:
             print("\nclosing the run's files and stopping the board; again to quit at once", file=sys.stderr)
             return
