@@ -16,7 +16,7 @@ from run_timing import benchmark_parser
 from firmware_interface import hil_codec as codec
 from firmware_interface.link import FrameScanner
 from firmware_interface.link.encoder import FrameEncoder, message_class
-from tests.noisy_stream import make_noisy_stream
+from tests.support.noisy_stream import make_noisy_stream
 
 N_FRAMES, QUICK_FRAMES = 5000, 200
 N_ENCODES, QUICK_ENCODES = 20000, 200

@@ -29,7 +29,7 @@ from px4_sitl_speed import MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S, minimal_simulator
 from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
 
 from firmware_interface.link import open_pty_pair  # noqa: E402
-from hil.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
+from hil.boards.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
 
 CONTROLLERS = ("smarc", "smpid", "backstepping")
 QUICK_HELIX_S = 3.0  # with --quick: 3 s of the helix, without the mass steps (at 10 s and 20 s)

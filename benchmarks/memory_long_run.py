@@ -41,7 +41,7 @@ def main() -> int:
         scenario.write_text(f"name: long_hover\nduration_s: {duration_s:g}\nseed: 3\nend: disarm\n"
                             "reference: {type: hover, altitude_m: 10}\n"
                             "wind: {steady_ned: [2, 1, 0], turbulence: {intensity: light}}\n")
-        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", tmp,
+        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", str(scenario), "--runs", tmp,
                                   "--no-report", "--no-gcs"], cwd=ROOT, stdout=subprocess.DEVNULL)
         started, samples = time.monotonic(), []
         while bench.poll() is None:

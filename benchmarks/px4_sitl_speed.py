@@ -25,8 +25,8 @@ sys.path.insert(0, str(ROOT))
 from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
 
 from firmware_interface import hil_codec as codec  # noqa: E402
-from hil.connect import start_px4_sitl  # noqa: E402
-from hil.px4.build import Px4Build, find_build  # noqa: E402
+from hil.boards.connect import start_px4_sitl  # noqa: E402
+from hil.boards.px4.build import Px4Build, find_build  # noqa: E402
 
 RATE_HZ = 250
 MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S = 60.0, 5.0
@@ -83,7 +83,8 @@ def main() -> int:
         elif os.environ.get("HIL_PX4_DIR"):
             build = Px4Build.locate(find_build(Path(os.environ["HIL_PX4_DIR"]), "sitl", scratch), "HIL_PX4_DIR")
         else:
-            print("px4_sitl_speed: give --px4 DIR or set HIL_PX4_DIR (see tests/px4_builds.py)", file=sys.stderr)
+            print("px4_sitl_speed: give --px4 DIR or set HIL_PX4_DIR (see tests/support/px4_builds.py)",
+                  file=sys.stderr)
             return 2
         hover = scenario_file("hover", args.quick, scratch)
         minimal, bench, breakdowns = [], [], []

@@ -51,7 +51,7 @@ def run_metrics(scenario: Path, extra: list[str], runs: Path, accept_exits: tupl
                 env: dict[str, str] | None = None) -> dict[str, Any]:
     """Fly `scenario` once as a user types it (telemetry on, no report) into the empty directory `runs`; the
     run's metrics. An exit outside `accept_exits` is printed with its reason."""
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs),
+    result = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", str(runs),
                              *extra], capture_output=True, text=True, cwd=ROOT, timeout=900, env=env)
     if not runs.is_dir():
         raise RuntimeError(f"hil run {scenario} {' '.join(extra)} exited {result.returncode}: {result.stderr[-500:]}")

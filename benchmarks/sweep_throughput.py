@@ -36,7 +36,7 @@ def samples_per_minute(spec: SweepSpec, jobs: int, samples: int, out: Path) -> f
 def bare_runs_wall_s(scenario: Path, count: int, runs: Path) -> float:
     """Wall time of `count` plain `hil run`s of `scenario` started together."""
     started = time.monotonic()
-    procs = [subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+    procs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                                "--runs", str(runs / str(k))], cwd=ROOT, stdout=subprocess.DEVNULL)
              for k in range(count)]
     assert all(proc.wait() == 0 for proc in procs)

@@ -16,7 +16,7 @@ from run_timing import ROOT, benchmark_parser, scenario_file
 SLOW_SUBSCRIBER = """
 import sys, time
 sys.path.insert(0, {root!r})
-from hil.telemetry import ZenohOptions, subscribe
+from hil.outputs.telemetry import ZenohOptions, subscribe
 received = []
 def slow(key, sample):
     received.append(key)
@@ -39,7 +39,7 @@ def free_port() -> int:
 
 def run(scenario: Path, endpoint: str | None) -> float:
     with tempfile.TemporaryDirectory() as runs:
-        args = [sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", runs]
+        args = [sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", runs]
         args += ["--zenoh-connect", endpoint] if endpoint else ["--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"]
         subprocess.run(args, check=True, capture_output=True, cwd=ROOT)
         metrics = json.loads((next(Path(runs).iterdir()) / "metrics.json").read_text())

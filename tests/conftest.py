@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from plant_fmu.build import ensure_fmu
-from tests.cli_runs import run
+from tests.support.cli_runs import run
 
 
 @pytest.fixture(scope="session")

@@ -35,7 +35,7 @@ def expected(path: Path) -> str:
 
 def _timed_check(path: Path) -> tuple[subprocess.CompletedProcess[str], float]:
     started = time.perf_counter()
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "check", str(path)], capture_output=True, text=True,
+    result = subprocess.run([sys.executable, "-m", "hil", "check", str(path)], capture_output=True, text=True,
                             cwd=ROOT, timeout=60, check=False)
     return result, time.perf_counter() - started
 
@@ -133,7 +133,7 @@ def test_hil_run_of_a_bad_scenario_exits_2_without_starting_a_board(tmp_path):
     runs.mkdir()
     bad = ROOT / "tests" / "data" / "bad_scenarios" / "board_config_typo.yaml"
     started = time.perf_counter()
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(bad), "--runs", str(runs), "--no-telemetry"],
+    result = subprocess.run([sys.executable, "-m", "hil", "run", str(bad), "--runs", str(runs), "--no-telemetry"],
                             capture_output=True, text=True, cwd=ROOT, timeout=60, check=False)
     elapsed = time.perf_counter() - started - start_up_s()
     assert result.returncode == 2 and "Traceback" not in result.stderr
@@ -146,7 +146,7 @@ def test_checking_a_bad_file_before_a_good_one_names_each_file_with_its_own_resu
     bad = tmp_path / "bad.yaml"
     bad.write_text("name: bad\nduration_s: -1\n")
     good = ROOT / "scenarios" / "hover.yaml"
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "check", str(bad), str(good)], capture_output=True,
+    result = subprocess.run([sys.executable, "-m", "hil", "check", str(bad), str(good)], capture_output=True,
                             text=True, cwd=ROOT)
     assert result.returncode == 2
     assert result.stdout.splitlines() == [f"{good}: ok (hover: hover, 30 s)"]

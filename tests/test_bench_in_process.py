@@ -18,13 +18,13 @@ from firmware_interface.board import BoardKind, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
-from hil.bench import Bench
-from hil.connect import BoardHandle, emulator_config
+from hil.boards.connect import BoardHandle, emulator_config
 from hil.exit_codes import EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
-from hil.frame import StepFrame
+from hil.host.stop_signals import stopped_by_signals
+from hil.loop.bench import Bench
+from hil.loop.frame import StepFrame
 from hil.scenario.loader import load_scenario
 from hil.scenario.schema import Scenario
-from hil.stop_signals import stopped_by_signals
 
 pytestmark = pytest.mark.slow  # a few seconds of flight in lockstep
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.px4_builds import px4_root
+from tests.support.px4_builds import px4_root
 
 pytestmark = [pytest.mark.slow, pytest.mark.e2e]
 ROOT = Path(__file__).resolve().parent.parent

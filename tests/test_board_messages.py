@@ -8,8 +8,8 @@ import math
 import pytest
 from pymavlink.dialects.v20 import common
 
-from firmware_interface.board_messages import decode_board_message
 from firmware_interface.emulator.control.registry import INTERNAL_KEYS
+from hil.loop.board_messages import decode_board_message
 
 
 def wire(msg):

@@ -6,7 +6,7 @@ import pytest
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import BoardError, BoardKind, BoardSession
-from tests.scripted_board import ScriptedBoard
+from tests.support.scripted_board import ScriptedBoard
 
 READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
 TRUTH = codec.GroundTruth(0, (1, 0, 0, 0), (0, 0, 0), 47.4, 8.5, 488.0, (0, 0, 0), (0, 0, -9.81))

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from pytest import approx
 
-from hil.compare import _estimate_rows, _windows
-from hil.report import PAPER_FRAME, _name, attitude_error
-from hil.rundata import RunData, recovery_times
+from hil.app.compare import _estimate_rows, _windows
+from hil.reports.png import PAPER_FRAME, _name, attitude_error
+from hil.reports.rundata import RunData, recovery_times
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -81,10 +81,10 @@ def short_scenario(tmp_path: Path) -> Path:
 
 def test_report_draws_the_papers_figures_for_a_run(tmp_path):
     runs = tmp_path / "runs"
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", str(short_scenario(tmp_path)), "--runs", str(runs),
+    subprocess.run([sys.executable, "-m", "hil", "run", str(short_scenario(tmp_path)), "--runs", str(runs),
                     "--no-telemetry"], check=True, capture_output=True, cwd=ROOT, timeout=300)
     run_dir = next(runs.iterdir())
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "report", str(run_dir)], capture_output=True, text=True,
+    result = subprocess.run([sys.executable, "-m", "hil", "report", str(run_dir)], capture_output=True, text=True,
                             cwd=ROOT, timeout=300)
     assert result.returncode == 0, result.stderr
     names = {Path(line).name for line in result.stdout.split() if line.endswith(".png")}
@@ -93,18 +93,18 @@ def test_report_draws_the_papers_figures_for_a_run(tmp_path):
     for name in names:
         data = (run_dir / "report" / name).read_bytes()
         assert data.startswith(PNG_MAGIC) and len(data) > 10_000
-    paper = subprocess.run([sys.executable, "-m", "hil.cli", "report", str(run_dir), "--paper-frame"],
+    paper = subprocess.run([sys.executable, "-m", "hil", "report", str(run_dir), "--paper-frame"],
                            capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert paper.returncode == 0, paper.stderr
     assert {Path(line).name for line in paper.stdout.split() if Path(line).parent.name == "paper_frame"} == names
-    bad = subprocess.run([sys.executable, "-m", "hil.cli", "report", str(tmp_path)], capture_output=True, text=True,
+    bad = subprocess.run([sys.executable, "-m", "hil", "report", str(tmp_path)], capture_output=True, text=True,
                          cwd=ROOT)
     assert bad.returncode == 2 and "not a run directory" in bad.stderr
 
 
 def test_compare_flies_each_controller_and_tabulates_them(tmp_path):
     out = tmp_path / "cmp"
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "compare", str(short_scenario(tmp_path)),
+    result = subprocess.run([sys.executable, "-m", "hil", "compare", str(short_scenario(tmp_path)),
                              "--controllers", "smarc,backstepping", "--jobs", "2", "--out", str(out)],
                             capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert result.returncode == 0, result.stdout + result.stderr

@@ -16,7 +16,7 @@ from firmware_interface.emulator import compiled
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# Flies every registered controller for 2 s on the estimator and the plant FMU (tests/closed_loop.py), then
+# Flies every registered controller for 2 s on the estimator and the plant FMU (tests/support/closed_loop.py), then
 # prints numba's cache counters summed over every compiled function of the flight code.
 FLY_AND_COUNT = """
 import json
@@ -24,7 +24,7 @@ from firmware_interface.emulator import compiled
 from firmware_interface.emulator.config import build_config
 from firmware_interface.emulator.control.registry import CONTROLLERS
 from hil.sensors import SensorsConfig
-from tests.closed_loop import PAPER_PLANT, hover, fly
+from tests.support.closed_loop import PAPER_PLANT, hover, fly
 
 for name in CONTROLLERS:
     fly(build_config({"controller": name, "airframe": "paper_airframe"}), PAPER_PLANT, hover((0.0, 0.0, -5.0)),
@@ -56,7 +56,7 @@ def test_the_first_process_compiles_the_flight_code_and_the_next_one_loads_it(tm
 
 def test_the_bench_and_its_commands_start_without_loading_the_compiler():
     """numba costs ~0.2 s to import: only a process that flies the emulator's flight code pays it."""
-    probe = "import sys, hil.cli, hil.runner; print('numba' in sys.modules)"
+    probe = "import sys, hil.app.cli, hil.run.runner; print('numba' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, capture_output=True, text=True, timeout=60)
     assert result.stdout.strip() == "False", result.stderr[-2000:]
 

@@ -19,7 +19,7 @@ from firmware_interface.emulator.control.registry import (
     make_controller,
     wire_name,
 )
-from tests.closed_loop import fly, hover
+from tests.support.closed_loop import fly, hover
 
 G = 9.80665  # standard gravity, m/s²
 NOMINAL = Nominal(1.0, np.array((0.011, 0.011, 0.021)), G)  # the inspection quad's nominal vehicle

@@ -11,7 +11,7 @@ import pytest
 from firmware_interface.emulator.config import build_config
 from firmware_interface.emulator.control.registry import CONTROLLERS
 from hil.sensors import SensorsConfig
-from tests.closed_loop import PAPER_PLANT, fly, helix, hover
+from tests.support.closed_loop import PAPER_PLANT, fly, helix, hover
 
 PAPER_CONTROLLERS = ("smarc", "smpid", "backstepping")  # the paper's comparison; CONTROLLERS: all registered
 

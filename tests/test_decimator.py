@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from itertools import pairwise
 
-from hil.telemetry import Decimator
+from hil.outputs.telemetry import Decimator
 
 STEP_US = 4000  # a 250 Hz bench
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from hil.metrics import check_expectations
+from hil.judge.metrics import check_expectations
 from hil.scenario.schema import Expect
 
 

@@ -12,7 +12,7 @@ import pytest
 from mcap.reader import make_reader
 
 from plant_fmu.plant import Plant, PlantError
-from tests.summary_text import summary_field
+from tests.support.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -23,7 +23,7 @@ def fly(tmp_path: Path, body: str) -> tuple[int, str, list[str]]:
     scenario = tmp_path / "s.yaml"
     scenario.write_text(body)
     runs = tmp_path / "runs"
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "--no-gcs", "--no-telemetry",
+    result = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", "--no-gcs", "--no-telemetry",
                              str(scenario), "--runs", str(runs)], capture_output=True, text=True, cwd=ROOT, timeout=180)
     assert "Traceback" not in result.stderr
     (run_dir,) = runs.iterdir()

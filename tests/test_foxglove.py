@@ -30,9 +30,9 @@ from mcap.reader import make_reader
 from mcap.records import Message
 from mcap.stream_reader import StreamReader
 
-from hil.foxglove_live import MAX_WALL_HZ
-from hil.foxglove_messages import ENU_FROM_NED_WXYZ
-from tests.ports import free_port
+from hil.outputs.foxglove_live import MAX_WALL_HZ
+from hil.outputs.foxglove_messages import ENU_FROM_NED_WXYZ
+from tests.support.ports import free_port
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -50,7 +50,7 @@ def hover_file(tmp_path: Path, seconds: float) -> Path:
 
 
 def hil(*args: str, **kwargs) -> subprocess.Popen[str]:
-    return subprocess.Popen([sys.executable, "-m", "hil.cli", *args], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-m", "hil", *args], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, cwd=ROOT, **kwargs)
 
 
@@ -246,14 +246,14 @@ def test_recover_rebuilds_a_recording_cut_by_sigkill(tmp_path):
         _indexed_messages(recording)  # the indexed reader refuses the cut file
     streamed = _streamed_messages(recording)
     assert len(streamed) > 10_000
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "recover", str(run_dir)], capture_output=True,
+    result = subprocess.run([sys.executable, "-m", "hil", "recover", str(run_dir)], capture_output=True,
                             text=True, cwd=ROOT, timeout=120)
     assert result.returncode == 0, result.stderr
     recovered = _indexed_messages(recording)
     assert [(t, d) for _, t, d in streamed] == [(t, d) for _, t, d in recovered]
     assert (run_dir / "recording.mcap.cut").is_file()
     assert (run_dir / "summary.txt").read_text().startswith("recovered:")
-    again = subprocess.run([sys.executable, "-m", "hil.cli", "recover", str(run_dir)], capture_output=True,
+    again = subprocess.run([sys.executable, "-m", "hil", "recover", str(run_dir)], capture_output=True,
                            text=True, cwd=ROOT, timeout=60)
     assert again.returncode == 0 and "complete already" in again.stdout
 

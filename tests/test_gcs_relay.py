@@ -41,7 +41,7 @@ def test_a_gcs_receives_the_emulators_traffic_but_no_hil_frames(tmp_path):
     listener.start()
     scenario = tmp_path / "s.yaml"
     scenario.write_text("name: s\nduration_s: 3\nseed: 4\nreference: {type: hover, altitude_m: 2}\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                           "--runs", str(tmp_path / "runs"), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14561"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     time.sleep(0.5)
@@ -60,13 +60,13 @@ def test_a_gcs_receives_the_emulators_traffic_but_no_hil_frames(tmp_path):
 
 
 def test_no_gcs_turns_the_relay_off_and_a_bad_endpoint_is_bad_input(tmp_path):
-    bad = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+    bad = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
                           "--gcs", "udpout:nowhere", "--runs", str(tmp_path)],
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "--gcs udpout:nowhere" in bad.stderr
     scenario = tmp_path / "s.yaml"
     scenario.write_text("name: s\nduration_s: 1\nseed: 4\nreference: {type: hover, altitude_m: 2}\nend: disarm\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                           "--runs", str(tmp_path / "runs"), "--no-telemetry", "--no-gcs"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert run.returncode == 0, run.stdout + run.stderr
@@ -113,7 +113,7 @@ def test_a_gcs_reads_the_emulators_parameters_and_a_gain_it_sets_takes_effect(tm
     scenario = tmp_path / "payload.yaml"
     scenario.write_text("name: payload\nduration_s: 12\nseed: 3\nreference: {type: hover, altitude_m: 3}\n"
                         "payload: [{t_s: 5, mass_kg: 0.5}]\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                           "--runs", str(tmp_path / "runs"), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14562"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     gcs.join(10)

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from tests.cli_runs import emulator_pids, run, wait_flying
-from tests.recording_digest import (
+from tests.support.cli_runs import emulator_pids, run, wait_flying
+from tests.support.recording_digest import (
     CHECKSUMS,
     numeric_platform,
     recorded_here,
@@ -57,7 +57,8 @@ def test_shipped_scenario_flies_bit_for_bit_as_before_the_last_refactor(scenario
     recorded = recorded_here()
     if recorded is None:
         pytest.skip(f"{CHECKSUMS.name} has no digests for this numeric platform, {numeric_platform()}: floating "
-                    "point differs in the last bit across platforms (add them: python -m tests.recording_digest)")
+                    "point differs in the last bit across platforms "
+                    "(add them: python -m tests.support.recording_digest)")
     assert simulated_digest(run_dir) == recorded["scenarios"][scenario.stem], (
         f"{scenario.stem} no longer flies bit for bit as at {recorded['recorded_at_revision']}")
 
@@ -109,7 +110,7 @@ def test_recording_opens_with_the_mcap_reader_and_has_every_channel_at_full_rate
 def test_killing_the_emulator_mid_run_exits_3_quickly_with_the_recording_intact(tmp_path):
     scenario = short_hover(tmp_path, seconds=120.0)
     runs = tmp_path / "runs"
-    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs)],
+    proc = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", str(runs)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     wait_flying(runs)
     (emulator,) = emulator_pids(proc.pid)
@@ -129,7 +130,7 @@ def test_killing_the_emulator_mid_run_exits_3_quickly_with_the_recording_intact(
 
 def test_ctrl_c_exits_130_and_says_so_in_the_summary(tmp_path):
     runs = tmp_path / "runs"
-    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(short_hover(tmp_path, 120.0)),
+    proc = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(short_hover(tmp_path, 120.0)),
                              "--runs", str(runs)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     wait_flying(runs)
     proc.send_signal(signal.SIGINT)

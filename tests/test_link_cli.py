@@ -16,7 +16,7 @@ import pytest
 
 from firmware_interface.link import Link, LinkError, open_pty_pair, parse_connection
 from firmware_interface.link.ports import pixhawk_maker
-from tests.summary_text import summary_field
+from tests.support.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -32,13 +32,13 @@ def test_baud_applies_where_the_string_names_none():
 def test_a_malformed_string_is_bad_input(text, tmp_path):
     with pytest.raises(LinkError):
         parse_connection(text)
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml", "--port", text,
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml", "--port", text,
                           "--runs", str(tmp_path)], capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert run.returncode == 2 and run.stderr.count("\n") == 1 and "--port" in run.stderr
 
 
 def run_on_serial(port: str, tmp_path: Path) -> str:
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml", "--port", port,
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml", "--port", port,
                           "--connect-timeout", "1", "--no-telemetry", "--no-gcs", "--runs", str(tmp_path)],
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert run.returncode == 3
@@ -81,16 +81,16 @@ def test_pixhawk_identification_by_usb_vendor_or_product():
 
 
 def test_hil_ports_says_when_no_pixhawk_is_there():
-    out = subprocess.run([sys.executable, "-m", "hil.cli", "ports"], capture_output=True, text=True, timeout=30,
+    out = subprocess.run([sys.executable, "-m", "hil", "ports"], capture_output=True, text=True, timeout=30,
                          cwd=ROOT).stdout
     assert "no Pixhawk found" in out  # this machine has no USB flight controller
 
 
 def test_hil_emulate_runs_from_the_command_line_and_speaks_px4s_heartbeat():
-    assert "--port" in subprocess.run([sys.executable, "-m", "hil.cli", "emulate", "--help"], capture_output=True,
+    assert "--port" in subprocess.run([sys.executable, "-m", "hil", "emulate", "--help"], capture_output=True,
                                       text=True, timeout=30, cwd=ROOT).stdout
     pair = open_pty_pair()
-    emulator = subprocess.Popen([sys.executable, "-m", "hil.cli", "emulate", "--port", pair.slave_path],
+    emulator = subprocess.Popen([sys.executable, "-m", "hil", "emulate", "--port", pair.slave_path],
                                 stderr=subprocess.PIPE, text=True, cwd=ROOT)
     link = Link(pair.master)
     try:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from firmware_interface.link.faults import FaultSpec, LinkFaults
-from tests.summary_text import summary_field
+from tests.support.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -71,7 +71,7 @@ def test_corruption_flips_one_bit_per_hit_and_outage_drops_everything_in_its_win
 def fly(tmp_path: Path, text: str) -> tuple[subprocess.CompletedProcess[str], dict]:
     scenario = tmp_path / "faults.yaml"
     scenario.write_text(text)
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                           "--runs", str(tmp_path / "runs"), "--no-telemetry", "--no-gcs"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     metrics = json.loads(next((tmp_path / "runs").iterdir()).joinpath("metrics.json").read_text())

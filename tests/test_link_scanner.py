@@ -10,7 +10,7 @@ from pymavlink.dialects.v20 import common
 
 from firmware_interface.link import FrameScanner, Reject
 from firmware_interface.link.dialect import SPECS
-from tests.noisy_stream import clean_frame, make_noisy_stream
+from tests.support.noisy_stream import clean_frame, make_noisy_stream
 
 
 def _crc_ok(frame: bytes) -> bool:

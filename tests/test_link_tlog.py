@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent.parent
 def test_the_tlog_holds_every_hil_frame_of_the_run_in_order(tmp_path):
     scenario = tmp_path / "short.yaml"
     scenario.write_text("name: short\nduration_s: 1\nseed: 4\nreference: {type: hover, altitude_m: 2}\nend: disarm\n")
-    run = subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario),
+    run = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                           "--runs", str(tmp_path / "runs"), "--no-telemetry"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert run.returncode == 0, run.stdout + run.stderr

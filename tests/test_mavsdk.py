@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.mavsdk_client import read_telemetry
+from tests.support.mavsdk_client import read_telemetry
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_mavsdk_reads_position_attitude_armed_and_mode_through_the_relay(tmp_path):
-    bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+    bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
                               "--runs", str(tmp_path), "--no-telemetry", "--gcs", "udpout:127.0.0.1:14591"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:

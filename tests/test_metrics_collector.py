@@ -10,8 +10,8 @@ import pytest
 
 from firmware_interface.emulator.geometry import euler_to_quat
 from firmware_interface.hil_codec import SensorReadings
-from hil.frame import StepFrame
-from hil.metrics import MetricsCollector
+from hil.judge.metrics import MetricsCollector
+from hil.loop.frame import StepFrame
 from hil.scenario.environment import EnvironmentSample
 from hil.scenario.reference import RefSample
 from plant_fmu.plant import Plant

@@ -15,10 +15,10 @@ from pymavlink.dialects.v20 import common
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.emulator.config import build_config
-from hil.report_figures import state_index
-from hil.rundata import load_flight
+from hil.reports.figures import state_index
+from hil.reports.rundata import load_flight
 from hil.scenario.loader import load_scenario
-from tests.closed_loop import PAPER_PLANT, fly, helix, scenario_inputs
+from tests.support.closed_loop import PAPER_PLANT, fly, helix, scenario_inputs
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -27,7 +27,7 @@ FLOAT32_EPS = float(np.finfo(np.float32).eps)  # 1.2e-7: one rounding of a value
 
 
 def run(scenario: Path, runs: Path, *options: str) -> Path:
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs), "--no-telemetry",
+    subprocess.run([sys.executable, "-m", "hil", "run", str(scenario), "--runs", str(runs), "--no-telemetry",
                     "--no-report", "--no-gcs", *options], check=False, capture_output=True, cwd=ROOT, timeout=600)
     return next(runs.iterdir())
 

@@ -80,7 +80,7 @@ def test_the_scenarios_apply_the_papers_d_s_and_d_m_in_ned_and_frd(name):
 @pytest.mark.parametrize("gamma, theta, psi", ANGLES)
 def test_the_reports_paper_frame_is_the_derived_one(gamma, theta, psi):
     """`hil report --paper-frame` draws positions as M·p and the bench's angles as the paper's."""
-    from hil.report import PAPER_FRAME
+    from hil.reports.png import PAPER_FRAME
 
     p = np.array((1.0, -2.0, -3.0))
     assert PAPER_FRAME.position(p) == pytest.approx(M @ p)

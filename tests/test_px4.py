@@ -1,7 +1,7 @@
 """The bench against real, unmodified PX4 v1.15.4: SITL in lockstep (`--px4`) and PX4's HITL code path
 on a pty (`--px4-hitl`). Checked against PX4's own flight log (ULog, read with pyulog) and its console.
 
-Needs HIL_PX4_DIR (see tests/px4_builds.py); CI sets it, and a missing PX4 fails CI rather than skipping.
+Needs HIL_PX4_DIR (see tests/support/px4_builds.py); CI sets it, and a missing PX4 fails CI rather than skipping.
 """
 
 from __future__ import annotations
@@ -23,11 +23,11 @@ from mcap.reader import make_reader
 from pymavlink import mavutil
 from pyulog import ULog
 
-from hil.telemetry import ZenohOptions, subscribe
-from tests.mavsdk_client import read_telemetry
-from tests.ports import free_port
-from tests.px4_builds import px4_build, px4_root
-from tests.summary_text import summary_field
+from hil.outputs.telemetry import ZenohOptions, subscribe
+from tests.support.mavsdk_client import read_telemetry
+from tests.support.ports import free_port
+from tests.support.px4_builds import px4_build, px4_root
+from tests.support.summary_text import summary_field
 
 PX4_ROOT = px4_root()
 pytestmark = [pytest.mark.px4, pytest.mark.slow]
@@ -50,7 +50,7 @@ def hitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def hil_run(*args: str, runs: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
     """`runs` is given relative to the working directory, as a user types it (PX4 runs in a rootfs under it)."""
     relative = os.path.relpath(runs, ROOT)
-    return subprocess.run([sys.executable, "-m", "hil.cli", "run", *args, "--runs", relative, "--no-telemetry"],
+    return subprocess.run([sys.executable, "-m", "hil", "run", *args, "--runs", relative, "--no-telemetry"],
                           capture_output=True, text=True, timeout=timeout, cwd=ROOT)
 
 
@@ -174,7 +174,7 @@ def assert_px4_stopped_the_streams_the_bench_does_not_read(run_dir: Path, metric
 
 
 def test_hitl_rehearsal_flies_the_serial_path_in_real_time_and_a_gcs_sees_px4_through_the_relay(hitl, tmp_path):
-    bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+    bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
                               "--px4-hitl", str(hitl), "--runs", os.path.relpath(tmp_path, ROOT), "--no-telemetry",
                               "--gcs", "udpout:127.0.0.1:14593"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
@@ -209,7 +209,7 @@ def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
 
 
 def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):
-    runs = [subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+    runs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
                               "--px4", str(sitl), "--runs", str(tmp_path / str(i)), "--no-telemetry"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT) for i in range(2)]
     outputs = [run.communicate(timeout=400) for run in runs]
@@ -243,7 +243,7 @@ class PhaseWatch:
 def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, second_ctrl_c):
     watch = PhaseWatch(phase)
     try:
-        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
                                   "--px4", str(sitl), "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert watch.reached.wait(120), f"the run never reached {phase}"
@@ -269,7 +269,7 @@ def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, 
 def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
     watch = PhaseWatch("mission")
     try:
-        bench = subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "scenarios/hover.yaml",
+        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
                                   "--px4", str(sitl), "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert watch.reached.wait(120), "the run never reached the mission"

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.ports import free_port
-from tests.summary_text import summary_field
+from tests.support.ports import free_port
+from tests.support.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def hil_run(*args: str, runs: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hil.cli", "run", "--no-report", *args,
+    return subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", *args,
                            "--runs", str(runs), "--no-telemetry"],
                           capture_output=True, text=True, timeout=120, cwd=ROOT)
 

@@ -9,7 +9,7 @@ import pytest
 from mcap.reader import make_reader
 
 from firmware_interface.geodesy import LocalFrame
-from hil.recorder import Recorder
+from hil.outputs.recorder import Recorder
 
 STEPS = 3000  # 12 s at 250 Hz: several 1 MiB chunks, so chunks are closed on the writer thread
 

@@ -20,9 +20,9 @@ import pytest
 import yaml
 from mcap.writer import CompressionType, Writer
 
-from hil.report_figures import thin
-from hil.report_html import write_report
-from hil.rundata import NoFlightData, disturbance_ned, load_flight, read_channels
+from hil.reports.figures import thin
+from hil.reports.html import write_report
+from hil.reports.rundata import NoFlightData, disturbance_ned, load_flight, read_channels
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -73,7 +73,7 @@ def test_an_accelerating_vehicle_needs_no_disturbance_for_the_acceleration_its_t
 # --- real flights ------------------------------------------------------------------------------------------------
 
 def fly(scenario: Path, runs: Path) -> Path:
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
+    result = subprocess.run([sys.executable, "-m", "hil", "run", str(scenario), "--runs", str(runs),
                              "--no-telemetry", "--no-gcs", "--no-report"], capture_output=True, text=True, cwd=ROOT,
                             timeout=300)
     assert result.returncode in (0, 1), result.stdout + result.stderr
@@ -318,7 +318,7 @@ def test_a_run_without_flight_data_is_refused_in_one_line_and_no_page_is_written
     with pytest.raises(NoFlightData, match=f"^{run_dir}: no flight data.*no heartbeat") as raised:
         write_report(run_dir)
     assert isinstance(raised.value, ValueError) and "\n" not in str(raised.value)
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "report", str(run_dir)], capture_output=True,
+    result = subprocess.run([sys.executable, "-m", "hil", "report", str(run_dir)], capture_output=True,
                             text=True, cwd=ROOT, timeout=120)
     assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert str(run_dir) in result.stderr and "Traceback" not in result.stderr

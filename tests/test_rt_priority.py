@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.rt_priority import FIFO_PRIORITY, board_on_its_own_core, frozen_heap, realtime_priority, run_just_below
+from hil.host.rt_priority import FIFO_PRIORITY, board_on_its_own_core, frozen_heap, realtime_priority, run_just_below
 
 
 def _may_raise_priority() -> bool:

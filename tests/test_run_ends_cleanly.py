@@ -16,12 +16,12 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from hil.frame import StepFrame
-from hil.runner import RunOptions, run_scenario
+from hil.host.stop_signals import stopped_by_signals, uninterrupted
+from hil.loop.frame import StepFrame
+from hil.run.runner import RunOptions, run_scenario
 from hil.scenario.loader import load_scenario
-from hil.stop_signals import stopped_by_signals, uninterrupted
-from tests.cli_runs import emulator_pids
-from tests.summary_text import summary_field
+from tests.support.cli_runs import emulator_pids
+from tests.support.summary_text import summary_field
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -82,7 +82,7 @@ def test_an_error_nobody_expected_is_exit_4_with_its_traceback_in_bench_log(tmp_
 
 
 def hil_run(*args: str) -> subprocess.Popen[str]:
-    return subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", "--no-gcs", *args],
+    return subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "--no-gcs", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
 
 
@@ -174,7 +174,7 @@ def test_an_expression_that_fails_mid_flight_ends_the_run_with_its_field_and_tim
     # negative under the root only for 3 s < t < 4 s: fine at the times `hil check` tries (0, 10, 20 s)
     scenario.write_text("name: sqrt\nduration_s: 20\nreference: {type: hover, altitude_m: 3}\nend: disarm\n"
                         "disturbance: {force_ned: [0, 'sqrt(t*t - 7*t + 12)', 0]}\n")
-    assert subprocess.run([sys.executable, "-m", "hil.cli", "check", str(scenario)], cwd=ROOT).returncode == 0
+    assert subprocess.run([sys.executable, "-m", "hil", "check", str(scenario)], cwd=ROOT).returncode == 0
     runs = tmp_path / "runs"
     bench = hil_run(str(scenario), "--runs", str(runs), "--no-telemetry")
     out, err = bench.communicate(timeout=120)

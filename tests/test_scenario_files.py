@@ -19,7 +19,7 @@ SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml"))
 
 
 def hil(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hil.cli", *args], capture_output=True, text=True, cwd=ROOT,
+    return subprocess.run([sys.executable, "-m", "hil", *args], capture_output=True, text=True, cwd=ROOT,
                           timeout=120)
 
 

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from hil.step_timer import StepTimer
+from hil.loop.step_timer import StepTimer
 
 
 def test_laps_charge_each_stretch_to_its_part_and_add_up_to_the_whole():

@@ -18,7 +18,7 @@ from hil.sweep import SweepError, load_sweep
 from hil.sweep.design import Sample, samples, scenario_data, set_path
 from hil.sweep.results import flight_metrics, make_row, read_parquet
 from hil.sweep.spec import SweepSpec
-from tests.ports import free_port
+from tests.support.ports import free_port
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -27,7 +27,7 @@ SHORT_HOVER = ROOT / "tests" / "data" / "short_hover.yaml"
 
 
 def hil(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "hil.cli", *args], capture_output=True, text=True, cwd=ROOT,
+    return subprocess.run([sys.executable, "-m", "hil", *args], capture_output=True, text=True, cwd=ROOT,
                           timeout=timeout)
 
 
@@ -191,7 +191,7 @@ def test_ctrl_c_keeps_finished_samples_and_resume_gives_the_uninterrupted_result
     whole = tmp_path / "whole"
     assert hil("sweep", str(sweep), "--out", str(whole)).returncode == 0
     stopped = tmp_path / "stopped"
-    process = subprocess.Popen([sys.executable, "-m", "hil.cli", "sweep", str(sweep), "--jobs", "1", "--out",
+    process = subprocess.Popen([sys.executable, "-m", "hil", "sweep", str(sweep), "--jobs", "1", "--out",
                                 str(stopped)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     deadline = time.monotonic() + 300
     while len(list(stopped.glob("samples/*/result.json"))) < 2 and time.monotonic() < deadline:

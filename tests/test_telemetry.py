@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from hil.telemetry import DEFAULT_RATES_HZ, ZenohOptions, fetch_meta, open_session
-from tests.cli_runs import wait_flying
-from tests.ports import free_port, wait_listening
+from hil.outputs.telemetry import DEFAULT_RATES_HZ, ZenohOptions, fetch_meta, open_session
+from tests.support.cli_runs import wait_flying
+from tests.support.ports import free_port, wait_listening
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
@@ -36,7 +36,7 @@ def scenario_file(tmp_path: Path, duration: float = 4.0, altitude: float = 3.0) 
 
 
 def bench(scenario: Path, runs: Path, endpoint: str, connect: bool = False) -> subprocess.Popen[str]:
-    return subprocess.Popen([sys.executable, "-m", "hil.cli", "run", "--no-report", str(scenario), "--runs", str(runs),
+    return subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", str(runs),
                              "--zenoh-connect" if connect else "--zenoh-listen", endpoint],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
 
@@ -45,7 +45,7 @@ def test_a_subscriber_in_another_process_gets_every_channel_at_its_rate(tmp_path
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     lines_path = tmp_path / "echo.jsonl"
     with open(lines_path, "wb") as sink:  # a file, not a pipe: a full pipe would block the subscriber
-        echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
+        echo = subprocess.Popen([sys.executable, "-m", "hil", "echo", "hil/**", "--zenoh-listen", endpoint],
                                 stdout=sink, stderr=subprocess.DEVNULL, cwd=ROOT)
         wait_listening(endpoint_port(endpoint))  # the bench connects to it when it opens its session
         run = bench(scenario_file(tmp_path, duration=20.0), tmp_path / "runs", endpoint, connect=True)
@@ -110,7 +110,7 @@ def read_screen(fd: int, seconds: float) -> bytes:
 def watch_on_a_terminal(endpoint: str, listen: bool = False) -> tuple[subprocess.Popen[bytes], int]:
     """`hil watch --latest` with a real pseudo-terminal as its screen; listening, or connecting to the bench."""
     master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest",
+    proc = subprocess.Popen([sys.executable, "-m", "hil", "watch", "--latest",
                              "--zenoh-listen" if listen else "--zenoh-connect", endpoint],
                             stdin=slave, stdout=slave, stderr=slave, cwd=ROOT,
                             env={**os.environ, "COLUMNS": "120", "LINES": "40", "TERM": "xterm"})
@@ -152,7 +152,7 @@ def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
         ctrl_c = i % 2 == 1
         # the watcher first: `watch --latest` follows the next run to start, and a 0.5 s run can be over
         # before a watcher started after it has joined
-        watcher = subprocess.Popen([sys.executable, "-m", "hil.cli", "watch", "--latest", "--zenoh-listen", endpoint],
+        watcher = subprocess.Popen([sys.executable, "-m", "hil", "watch", "--latest", "--zenoh-listen", endpoint],
                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
         wait_listening(endpoint_port(endpoint))
         run = bench(scenario_file(tmp_path, duration=60.0 if ctrl_c else 0.5, altitude=1.0), tmp_path / f"r{i}",
@@ -178,7 +178,7 @@ def test_a_stopped_subscriber_does_not_hold_up_the_end_of_a_run(tmp_path):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     scenario = tmp_path / "s.yaml"
     scenario.write_text("name: stall\nduration_s: 2\nreference: {type: hover, altitude_m: 2}\nend: disarm\n")
-    echo = subprocess.Popen([sys.executable, "-m", "hil.cli", "echo", "hil/**", "--zenoh-listen", endpoint],
+    echo = subprocess.Popen([sys.executable, "-m", "hil", "echo", "hil/**", "--zenoh-listen", endpoint],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT)
     wait_listening(endpoint_port(endpoint))
     try:
@@ -201,7 +201,7 @@ def test_a_stopped_subscriber_does_not_hold_up_the_end_of_a_run(tmp_path):
 
 def test_watch_of_a_run_that_is_not_running_honours_wait(tmp_path):
     started = time.monotonic()
-    watch = subprocess.run([sys.executable, "-m", "hil.cli", "watch", "20990101T000000.000000Z-nosuch", "--wait", "2",
+    watch = subprocess.run([sys.executable, "-m", "hil", "watch", "20990101T000000.000000Z-nosuch", "--wait", "2",
                             "--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"], capture_output=True, text=True,
                            cwd=ROOT, timeout=60)
     assert watch.returncode == 1

@@ -17,8 +17,8 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
-from hil.report import overlay_errors  # noqa: E402
-from hil.rundata import load_run  # noqa: E402
+from hil.reports.png import overlay_errors  # noqa: E402
+from hil.reports.rundata import load_run  # noqa: E402
 
 OUT = Path(__file__).resolve().parent
 RUNS = {"rotor aerodynamics on (gust.yaml)": "gust", "off (gust_aero_compare.yaml)": "gust_aero_compare"}
@@ -36,7 +36,7 @@ def fly(name: str, runs: Path, ideal: bool) -> Path:
         scenario.pop("expect", None)
     path = runs / f"{name}.yaml"
     path.write_text(yaml.safe_dump(scenario))
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", str(path), "--runs", str(runs / name), "--no-telemetry"],
+    subprocess.run([sys.executable, "-m", "hil", "run", str(path), "--runs", str(runs / name), "--no-telemetry"],
                    check=True, cwd=ROOT, stdout=subprocess.DEVNULL)
     return next(p for p in (runs / name).iterdir() if p.is_dir())
 

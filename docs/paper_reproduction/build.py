@@ -1,7 +1,7 @@
 """Regenerate docs/paper_reproduction.md and its figures from flights of the code as it is (`make paper`).
 
-Every number on the page is measured here: the comparisons (`hil.compare`), the sensitivity sweeps
-(`sweeps/paper_sensitivity_*.yaml`), the controllers in process on the exact state (tests/closed_loop.py) and
+Every number on the page is measured here: the comparisons (`hil.app.compare`), the sensitivity sweeps
+(`sweeps/paper_sensitivity_*.yaml`), the controllers in process on the exact state (tests/support/closed_loop.py) and
 the closed-loop poles of the shipped gains. The only figures typed in are the paper's own (its Tables 1–2, its
 §5.1 text) and the figures of this page before the exact-state path, each said to be so where it stands.
 """
@@ -23,12 +23,12 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from firmware_interface.emulator.config import build_config  # noqa: E402
-from hil.compare import _controller_row, compare  # noqa: E402
-from hil.report import PAPER_FRAME, overlay_errors, report  # noqa: E402
-from hil.rundata import load_run  # noqa: E402
+from hil.app.compare import _controller_row, compare  # noqa: E402
+from hil.reports.png import PAPER_FRAME, overlay_errors, report  # noqa: E402
+from hil.reports.rundata import load_run  # noqa: E402
 from hil.scenario.loader import load_scenario  # noqa: E402
 from hil.sweep import run_sweep  # noqa: E402
-from tests.closed_loop import PAPER_PLANT, fly, helix, scenario_inputs  # noqa: E402
+from tests.support.closed_loop import PAPER_PLANT, fly, helix, scenario_inputs  # noqa: E402
 
 DOCS = ROOT / "docs"
 FIGURES = DOCS / "paper_reproduction"
@@ -212,7 +212,8 @@ def page(studies: dict[str, Study], sweeps: dict[str, list], exact: dict, figure
         "still reads it when a sender has nothing else. A test (`tests/test_paper_exact_state.py`) checks that the "
         "state the emulator's controller flies on equals the plant's at the same step to float32 precision.", "",
         "Roll and pitch error ranges (deg, NED) through the chain now, against the same controller classes flown "
-        "in process on the plant's exact state (same plant, scenario inputs, 1 kHz; `tests/closed_loop.py`), and "
+        "in process on the plant's exact state (same plant, scenario inputs, 1 kHz; "
+        "`tests/support/closed_loop.py`), and "
         "against this page's figures before the change (revision 9218bbc, HIL_STATE_QUATERNION's quantised state):",
         "", "| study, controller | chain roll | in process roll | before roll | chain pitch | in process pitch | "
         "before pitch |", "| --- | --- | --- | --- | --- | --- | --- |"]

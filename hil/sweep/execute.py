@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hil.lifetime import die_with_parent
+from hil.host.lifetime import die_with_parent
 
 RESULT = "result.json"
 SAMPLE_TIMEOUT_S = 3600.0  # a sample that runs longer than this is stopped and reported
@@ -57,7 +57,7 @@ def fly_sample(task: SampleTask) -> dict[str, Any]:
     runs = directory / "runs"
     started = time.monotonic()
     try:
-        result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
+        result = subprocess.run([sys.executable, "-m", "hil", "run", str(scenario), "--runs", str(runs),
                                  "--no-telemetry", "--no-gcs", "--no-report", "--keep-failed"],
                                 capture_output=True, text=True,
                                 preexec_fn=die_with_parent, timeout=SAMPLE_TIMEOUT_S)

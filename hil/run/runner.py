@@ -16,8 +16,7 @@ import zenoh
 from firmware_interface.board import BoardError, BoardKind
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import FrameTap, LinkError, TlogWriter
-from hil.bench import Bench, Sink
-from hil.connect import (
+from hil.boards.connect import (
     BoardHandle,
     open_board,
     px4_parameters,
@@ -25,6 +24,8 @@ from hil.connect import (
     start_px4_hitl,
     start_px4_sitl,
 )
+from hil.boards.gcs_relay import DEFAULT_GCS, GcsBridge
+from hil.boards.px4 import Px4Build
 from hil.exit_codes import (
     EXIT_BAD_INPUT,
     EXIT_BOARD,
@@ -34,15 +35,14 @@ from hil.exit_codes import (
     EXIT_OK,
     verdict,
 )
-from hil.foxglove_live import FoxgloveServer
-from hil.foxglove_messages import mission_scene
-from hil.gcs import DEFAULT_GCS, GcsBridge
-from hil.metrics import check_expectations, slip_note
-from hil.px4 import Px4Build
-from hil.recorder import Recorder, make_run_dir
+from hil.host.stop_signals import stopped_by_signals
+from hil.judge.metrics import check_expectations, slip_note
+from hil.loop.bench import Bench, Sink
+from hil.outputs.foxglove_live import FoxgloveServer
+from hil.outputs.foxglove_messages import mission_scene
+from hil.outputs.recorder import Recorder, make_run_dir
+from hil.outputs.telemetry import TelemetryPublisher, ZenohOptions, close_within, open_session
 from hil.scenario.schema import Scenario
-from hil.stop_signals import stopped_by_signals
-from hil.telemetry import TelemetryPublisher, ZenohOptions, close_within, open_session
 
 
 @dataclass

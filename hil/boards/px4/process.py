@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
-from hil.px4.build import Px4Build
+from hil.boards.px4.build import Px4Build
 
 MAX_INSTANCES = 16
 SHUTDOWN_WAIT_S = 0.5  # `px4-shutdown` ends PX4 in ~10 ms; then SIGTERM, then SIGKILL

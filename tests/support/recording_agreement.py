@@ -2,8 +2,8 @@
 (deg) at the same simulated time, from their recordings' `hil/state` channel.
 
 A deliberate numerical change (a clock, a geodesy) cannot keep the recordings bit for bit; this is how it is
-shown to keep the flight: `python -m tests.recording_agreement OLD_RUN_DIR NEW_RUN_DIR`, or over every shipped
-scenario with `python -m tests.recording_agreement --shipped OLD_REVISION` (flies both sides here).
+shown to keep the flight: `python -m tests.support.recording_agreement OLD_RUN_DIR NEW_RUN_DIR`, or over every shipped
+scenario with `python -m tests.support.recording_agreement --shipped OLD_REVISION` (flies both sides here).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 import orjson
 from mcap.reader import make_reader
 
-from tests.recording_digest import NOT_REPRODUCIBLE, ROOT, shipped_scenarios
+from tests.support.recording_digest import NOT_REPRODUCIBLE, ROOT, shipped_scenarios
 
 
 def true_states(run_dir: Path) -> dict[int, tuple[np.ndarray, np.ndarray]]:
@@ -44,7 +44,7 @@ def agreement(old: Path, new: Path) -> tuple[float, float, int]:
 
 
 def _fly(checkout: Path, scenario: Path, runs: Path) -> Path:
-    subprocess.run([sys.executable, "-m", "hil.cli", "run", str(checkout / "scenarios" / scenario.name), "--runs",
+    subprocess.run([sys.executable, "-m", "hil", "run", str(checkout / "scenarios" / scenario.name), "--runs",
                     str(runs), "--no-report", "--no-telemetry", "--no-gcs"], cwd=checkout, check=False,
                    stdout=subprocess.DEVNULL)
     return max(runs.iterdir())

@@ -1,7 +1,7 @@
 """The run directory: scenario as resolved, meta, a full-rate MCAP recording, metrics and summary.
 
 The recording has one JSON channel per sample type, each with its own JSON Schema (`hil.channels`),
-beside Foxglove's well-known messages (`hil.foxglove_messages`); the resolved scenario, the run meta
+beside Foxglove's well-known messages (`hil.outputs.foxglove_messages`); the resolved scenario, the run meta
 and the final metrics are MCAP metadata records. Log times are the wall-clock start of the run plus
 simulated time, so a viewer shows the real date; every sample keeps its simulated `t_us`.
 
@@ -43,11 +43,11 @@ from foxglove.mcap import MCAPCompression, MCAPWriteOptions
 
 from firmware_interface.geodesy import LocalFrame
 from hil.channels import BOARD_CHANNEL, RECORDED_CHANNELS
-from hil.foxglove_channels import byte_loggers, json_channels, view_channels
-from hil.foxglove_messages import FoxgloveViews
-from hil.frame import StepFrame
-from hil.rt_priority import current_fifo_priority, run_just_below
-from hil.stop_signals import uninterrupted
+from hil.host.rt_priority import current_fifo_priority, run_just_below
+from hil.host.stop_signals import uninterrupted
+from hil.loop.frame import StepFrame
+from hil.outputs.foxglove_channels import byte_loggers, json_channels, view_channels
+from hil.outputs.foxglove_messages import FoxgloveViews
 
 # The writer keeps an index entry per chunk in memory until the file's summary is written: 1 MiB chunks
 # (about 2.3 s of simulated time at 250 Hz, all channels: ~440 KiB/s) keep that under ~5 MB for a 2-hour run, and

@@ -21,8 +21,8 @@ import orjson
 import zenoh
 
 from hil.channels import CHANNEL_MODELS
-from hil.frame import StepFrame
-from hil.recorder import frame_messages
+from hil.loop.frame import StepFrame
+from hil.outputs.recorder import frame_messages
 
 DEFAULT_RATES_HZ: dict[str, float] = {
     "state": 50.0, "reference": 50.0, "sensors/imu": 50.0, "sensors/gps": 10.0, "sensors/baro": 10.0,

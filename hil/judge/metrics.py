@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from firmware_interface.emulator.geometry import quat_to_euler
-from hil.frame import StepFrame
+from hil.judge.streaming_stats import Extremes, LogHistogram
+from hil.loop.frame import StepFrame
 from hil.scenario.schema import Expect
-from hil.streaming_stats import Extremes, LogHistogram
 
 
 def _wrap(a: np.ndarray) -> np.ndarray:

@@ -96,8 +96,8 @@ def _with_run_options(scenario, args: argparse.Namespace):
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from hil.progress import progress_printer
-    from hil.runner import run_scenario
+    from hil.app.progress import progress_printer
+    from hil.run.runner import run_scenario
 
     scenarios, bad = _load([args.scenario])
     if bad:
@@ -125,8 +125,8 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
     """`hil run`'s options, every link, PX4 build and address checked before any board starts; None after
     one line naming the option that is wrong."""
     from firmware_interface.link import LinkError, parse_connection
-    from hil.px4 import Px4Build, Px4SetupError
-    from hil.runner import RunOptions
+    from hil.boards.px4 import Px4Build, Px4SetupError
+    from hil.run.runner import RunOptions
 
     named = [("--gcs", e) for e in args.gcs or []] + [(o, v) for o, v in (("--port", args.port),
                                                                            ("--mavlink", args.mavlink)) if v]
@@ -143,7 +143,7 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
         print(f"hil run: {exc}", file=sys.stderr)
         return None
     if args.foxglove is not None:
-        from hil.foxglove_live import parse_address
+        from hil.outputs.foxglove_live import parse_address
 
         try:
             parse_address(args.foxglove)
@@ -158,7 +158,7 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
 
 
 def _zenoh_options(args: argparse.Namespace):
-    from hil.telemetry import ZenohOptions
+    from hil.outputs.telemetry import ZenohOptions
 
     endpoints = bool(args.zenoh_connect or args.zenoh_listen)
     return ZenohOptions(connect=args.zenoh_connect or [], listen=args.zenoh_listen or [],
@@ -175,20 +175,20 @@ def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
-    from hil.watch import watch
+    from hil.app.watch import watch
 
     return watch(None if args.latest else args.run_id, _zenoh_options(args), args.wait)
 
 
 def _cmd_echo(args: argparse.Namespace) -> int:
-    from hil.watch import echo
+    from hil.app.watch import echo
 
     return echo(args.key_expr, _zenoh_options(args))
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from hil.report import report
-    from hil.report_html import NoFlightData, write_report
+    from hil.reports.html import NoFlightData, write_report
+    from hil.reports.png import report
 
     run_dir = Path(args.run_dir)
     if not (run_dir / "recording.mcap").is_file():
@@ -206,7 +206,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _report_after_run(run_dir: Path) -> None:
     """report.html at the end of `hil run`; a run without flight data gets a note instead of a page."""
-    from hil.report_html import NoFlightData, write_report
+    from hil.reports.html import NoFlightData, write_report
 
     try:
         print(f"report: {write_report(run_dir)}")
@@ -215,7 +215,7 @@ def _report_after_run(run_dir: Path) -> None:
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
-    from hil.recover import RecoverError, recover
+    from hil.outputs.recover import RecoverError, recover
 
     run_dir = Path(args.run_dir)
     try:
@@ -234,8 +234,9 @@ def _cmd_recover(args: argparse.Namespace) -> int:
 def _cmd_foxglove(args: argparse.Namespace) -> int:
     import threading
 
-    from hil.foxglove_live import bridge_zenoh, parse_address
-    from hil.telemetry import open_session
+    from hil.app.foxglove_bridge import bridge_zenoh
+    from hil.outputs.foxglove_live import parse_address
+    from hil.outputs.telemetry import open_session
 
     try:
         parse_address(args.listen)
@@ -258,7 +259,7 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from hil.progress import sample_progress
+    from hil.app.progress import sample_progress
     from hil.scenario.loader import ScenarioError
     from hil.sweep import SweepError, load_sweep, run_spec
 
@@ -284,7 +285,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from hil.compare import compare
+    from hil.app.compare import compare
 
     scenarios, bad = _load([args.scenario])
     if bad:

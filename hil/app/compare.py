@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from hil.rundata import RunData, load_run, recovery_times
+from hil.reports.rundata import RunData, load_run, recovery_times
 from hil.scenario.schema import Scenario
 from hil.sweep import run_spec
 from hil.sweep.results import flight_metrics
@@ -184,7 +184,7 @@ def compare(scenario_path: Path, scenario: Scenario, controllers: list[str], see
                                                                 for f in failed) + "\n"
     (out / "comparison.json").write_text(json.dumps(result, indent=2))
     (out / "comparison.md").write_text(markdown)
-    from hil.report import (  # plotting stays out of the loop: imported only here
+    from hil.reports.png import (  # plotting stays out of the loop: imported only here
         overlay_errors,
         report,
     )

@@ -26,11 +26,10 @@ from pymavlink.dialects.v20.common import (
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, BoardError, BoardKind, Request
-from firmware_interface.board_messages import decode_board_message
 from firmware_interface.link import LinkError, Message
 from firmware_interface.link.dialect import message_name
 from firmware_interface.link.faults import FaultSpec, LinkFaults
-from hil.connect import BoardHandle
+from hil.boards.connect import BoardHandle
 from hil.exit_codes import (
     EXIT_BOARD,
     EXIT_EXPECT_FAILED,
@@ -38,10 +37,13 @@ from hil.exit_codes import (
     EXIT_INTERRUPTED,
     EXIT_OK,
 )
-from hil.flight_judge import FlightFailed, FlightJudge
-from hil.frame import StepFrame
-from hil.metrics import MetricsCollector
-from hil.rt_priority import frozen_heap, realtime_priority
+from hil.host.rt_priority import frozen_heap, realtime_priority
+from hil.host.stop_signals import stop_requested
+from hil.judge.flight_judge import FlightFailed, FlightJudge
+from hil.judge.metrics import MetricsCollector
+from hil.loop.board_messages import decode_board_message
+from hil.loop.frame import StepFrame
+from hil.loop.step_timer import StepTimer
 from hil.scenario.environment import Environment, EnvironmentSample
 from hil.scenario.expressions import EvaluationError
 from hil.scenario.mission import MissionPlan
@@ -49,8 +51,6 @@ from hil.scenario.reference import RefSample
 from hil.scenario.schema import Scenario
 from hil.scenario.vehicles import plant_parameters
 from hil.sensors import SensorsConfig, SensorSuite, TrueState
-from hil.step_timer import StepTimer
-from hil.stop_signals import stop_requested
 from plant_fmu import Plant, PlantError, PlantState
 
 PREFLIGHT_TIMEOUT_S = 60.0  # simulated: PX4's GNSS checks alone need ~10 s of good data

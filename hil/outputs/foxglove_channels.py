@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterable, Mapping
 import foxglove
 
 from hil.channels import TOPIC_PREFIX, json_schema, schema_name
-from hil.foxglove_messages import FOXGLOVE_TOPICS
+from hil.outputs.foxglove_messages import FOXGLOVE_TOPICS
 
 
 def json_channels(context: foxglove.Context, names: Iterable[str]) -> dict[str, foxglove.Channel]:

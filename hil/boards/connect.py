@@ -22,12 +22,12 @@ from firmware_interface.link import (
     open_pty_pair,
     parse_connection,
 )
-from hil.gcs import GcsBridge
-from hil.lifetime import die_with_parent
-from hil.process_cpu import cpu_seconds
-from hil.px4 import Px4Build, Px4Process, claim_instance
-from hil.px4.hitl_startup import write_hitl_startup
-from hil.rt_priority import board_on_its_own_core
+from hil.boards.gcs_relay import GcsBridge
+from hil.boards.px4 import Px4Build, Px4Process, claim_instance
+from hil.boards.px4.hitl_startup import write_hitl_startup
+from hil.host.lifetime import die_with_parent
+from hil.host.process_cpu import cpu_seconds
+from hil.host.rt_priority import board_on_its_own_core
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
 

@@ -20,9 +20,9 @@ from typing import Any
 from matplotlib.colors import to_hex
 
 from hil.exit_codes import verdict
-from hil.metrics import slip_note
-from hil.report_figures import PAYLOAD_COLOUR, SPAN_STYLE, Bounds, render
-from hil.rundata import Flight, NoFlightData, load_flight
+from hil.judge.metrics import slip_note
+from hil.reports.figures import PAYLOAD_COLOUR, SPAN_STYLE, Bounds, render
+from hil.reports.rundata import Flight, NoFlightData, load_flight
 
 __all__ = ["NoFlightData", "write_report"]
 
@@ -70,7 +70,7 @@ def bounds_of(flight: Flight) -> Bounds:
 
 
 def checks(bounds: Bounds, metrics: dict[str, Any]) -> list[Check]:
-    """Each expect line with the figure from metrics.json it is judged on (as hil.metrics.check_expectations
+    """Each expect line with the figure from metrics.json it is judged on (as hil.judge.metrics.check_expectations
     judges it: a figure that was not measured fails)."""
     out = []
     if bounds.max_error_m is not None:

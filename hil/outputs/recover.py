@@ -17,7 +17,7 @@ from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
-from hil.recorder import CHUNK_BYTES
+from hil.outputs.recorder import CHUNK_BYTES
 
 RECORDING = "recording.mcap"
 CUT_SUFFIX = ".cut"

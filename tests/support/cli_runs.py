@@ -7,12 +7,12 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def run(scenario: Path, runs: Path, *extra: str, timeout: float = 600) -> tuple[subprocess.CompletedProcess[str], Path]:
     """The finished process and its run directory (the newest in `runs`)."""
-    result = subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs), *extra],
+    result = subprocess.run([sys.executable, "-m", "hil", "run", str(scenario), "--runs", str(runs), *extra],
                             capture_output=True, text=True, cwd=ROOT, timeout=timeout)
     return result, max(runs.iterdir())
 

@@ -5,7 +5,7 @@ draws them: z up, its angles γ, θ, ψ, titles with its figure number for the c
 NED reflected in z (x = north, y = east, z = −down: the helix x = cos(t/2), y = sin(t/2), z = t is flown as
 north, east, up), so γ = −roll, θ = −pitch, ψ = yaw (tests/test_paper_frames.py derives this).
 
-matplotlib is imported by the report modules only (here and hil.report_figures; never in the loop), with the
+matplotlib is imported by the report modules only (here and hil.reports.figures; never in the loop), with the
 non-interactive Agg backend.
 """
 
@@ -22,7 +22,7 @@ import matplotlib.ticker
 import numpy as np
 
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
-from hil.rundata import RunData, load_run
+from hil.reports.rundata import RunData, load_run
 
 G = STANDARD_GRAVITY_M_S2
 Z_LINEAR_BELOW_M = 0.05  # the z overlay is linear inside ±5 cm, logarithmic beyond: a 0.24 m sag beside 3 m

@@ -1,13 +1,13 @@
 """A recording's content on simulated time, and its digest: what two runs of one scenario and seed share
 bit for bit (the wall-clock start, the timing channel and Foxglove's wall-clock-stamped views aside).
 
-`tests/recording_checksums.json` keeps the digest of every shipped scenario as flown before a refactor, so
+`tests/support/recording_checksums.json` keeps the digest of every shipped scenario as flown before a refactor, so
 that a change meant to keep behaviour is shown to keep it. Floating point is only reproducible on the
 same numeric platform (CPU features that pick numpy's and libm's code paths, their versions, numba's, and the
 kernels OpenBLAS picked for the CPU model, which `OPENBLAS_CORETYPE` can override), so the file
 keeps one set of digests per platform, each made from a revision whose flights were shown bit for bit
 equal to the earlier set's. After a deliberate change of flight results, regenerate them with
-`python -m tests.recording_digest` on each platform and say in CHANGELOG.md what changed and why.
+`python -m tests.support.recording_digest` on each platform and say in CHANGELOG.md what changed and why.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import numpy as np
 from mcap.reader import make_reader
 from threadpoolctl import threadpool_info
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CHECKSUMS = Path(__file__).with_name("recording_checksums.json")
 NOT_REPRODUCIBLE = {"link_faults": "paced in real time: which frame a wall-clock latency or loss hits "
                     "depends on the machine's timing, so two runs of it differ"}
@@ -84,7 +84,7 @@ def main() -> int:
             if scenario.stem in NOT_REPRODUCIBLE:
                 continue
             runs = Path(tmp) / scenario.stem
-            subprocess.run([sys.executable, "-m", "hil.cli", "run", str(scenario), "--runs", str(runs),
+            subprocess.run([sys.executable, "-m", "hil", "run", str(scenario), "--runs", str(runs),
                             "--no-report", "--no-telemetry", "--no-gcs"], cwd=ROOT, check=True,
                            stdout=subprocess.DEVNULL)
             (run_dir,) = runs.iterdir()

@@ -1,8 +1,8 @@
-"""The figures of the one-page run report (`hil.report_html`): the whole flight on the mission clock, with the
+"""The figures of the one-page run report (`hil.reports.html`): the whole flight on the mission clock, with the
 scenario's gusts, payload steps and faults and the bench's phase changes marked on every time axis, and the
 `expect` bounds drawn where they apply. Each figure comes back as PNG bytes, to be embedded in the page.
 
-matplotlib is imported here and in hil.report only (never in the loop), with the non-interactive Agg backend.
+matplotlib is imported here and in hil.reports.png only (never in the loop), with the non-interactive Agg backend.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
-from hil.rundata import G_NED_M_S2, Flight, rpy_from_quaternion
+from hil.reports.rundata import G_NED_M_S2, Flight, rpy_from_quaternion
 
 DPI = 100
 WIDTH_IN = 13.0

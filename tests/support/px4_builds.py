@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from hil.px4.build import Px4SetupError, find_build
+from hil.boards.px4.build import Px4SetupError, find_build
 
 ENV = "HIL_PX4_DIR"
 SKIP_REASON = (f"real-PX4 tests skipped: set {ENV} to PX4-Autopilot/build (with px4_sitl_default and "
