@@ -18,7 +18,7 @@ from pymavlink.dialects.v20 import common
 from run_timing import benchmark_parser
 
 from firmware_interface import hil_codec as codec
-from firmware_interface.board import BoardKind, BoardSession
+from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder, message_class
@@ -69,7 +69,7 @@ def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tup
     pair = open_pty_pair()
     proc = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
                              "--controller", controller])
-    session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=2.0)
+    session = BoardSession(Link(pair.master), SIMULATED, watchdog_s=2.0)
     session.wait_heartbeat(10.0)
     pair.release_slave()
     times: list[float] = []

@@ -25,8 +25,10 @@ sys.path.insert(0, str(ROOT))
 from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
 
 from firmware_interface import hil_codec as codec  # noqa: E402
-from hil.boards.connect import start_px4_sitl  # noqa: E402
 from hil.boards.px4.build import Px4Build, find_build  # noqa: E402
+from hil.boards.px4_sitl import Px4SitlTarget  # noqa: E402
+from hil.boards.target import LinkSettings  # noqa: E402
+from hil.scenario.loader import load_scenario  # noqa: E402
 
 RATE_HZ = 250
 MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S = 60.0, 5.0
@@ -38,7 +40,8 @@ MAG_FRD_T = (2.16e-5, 0.13e-5, 4.28e-5)  # roughly the earth field at PX4's defa
 def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> tuple[float, float]:
     """PX4 SITL stepped by the simplest simulator there is for `sim_s`; returns simulated s per wall s and
     PX4's own CPU µs per step (measured as the bench measures its board's, `timing.board_cpu_us_per_step`)."""
-    handle = start_px4_sitl(build, scratch, watchdog_s=2.0)
+    handle = Px4SitlTarget(build).attach(load_scenario(ROOT / "scenarios" / "hover.yaml"), scratch,
+                                         LinkSettings(watchdog_s=2.0))
     session = handle.session
     rng = np.random.default_rng(1)
     dt_us = 1_000_000 // RATE_HZ

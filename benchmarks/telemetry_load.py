@@ -16,7 +16,8 @@ from run_timing import ROOT, benchmark_parser, scenario_file
 SLOW_SUBSCRIBER = """
 import sys, time
 sys.path.insert(0, {root!r})
-from hil.outputs.telemetry import ZenohOptions, subscribe
+from hil.outputs.telemetry import subscribe
+from hil.outputs.zenoh_session import ZenohOptions
 received = []
 def slow(key, sample):
     received.append(key)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import Enum
 from typing import Any
 
 from pymavlink.dialects.v20 import common
@@ -29,6 +28,7 @@ from pymavlink.dialects.v20.common import (
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.link import Link, LinkError, Message
+from firmware_interface.link.faults import LinkFaults
 from firmware_interface.px4_modes import FORCE_DISARM_MAGIC, PX4_MAIN_MODE_OFFBOARD
 
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
@@ -44,6 +44,14 @@ class Request:
 
     command: int
     params: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class ParamSet:
+    """A PARAM_SET of a float parameter: the board answers with PARAM_VALUE (`BoardState.params`)."""
+
+    name: str
+    value: float
 
 
 ARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
@@ -62,12 +70,17 @@ PROTOCOL_IDS = frozenset({common.MAVLINK_MSG_ID_TIMESYNC, common.MAVLINK_MSG_ID_
 STOP_STREAM = -1.0  # MAV_CMD_SET_MESSAGE_INTERVAL's param2 that stops a stream
 
 
-class BoardKind(Enum):
-    """How the board is attached; decides whether ground truth may be sent."""
+@dataclass(frozen=True)
+class LinkPolicy:
+    """What a session may do with its board: the two ways a board on its own clock differs from a simulated one."""
 
-    HITL = "hitl"  # a real board on serial/USB: never send HIL_STATE_QUATERNION
-    SITL = "sitl"  # PX4 SITL on TCP
-    EMULATOR = "emulator"  # our emulator on a pty
+    own_clock: bool  # the board keeps its own time (a Pixhawk, PX4's HITL path): never lockstep, never waited for
+    takes_ground_truth: bool  # the true state may be sent (PX4 SITL logs it, the emulator may fly on it); a real
+    # board's EKF2 would take HIL_STATE_QUATERNION over its own estimate
+
+
+SIMULATED = LinkPolicy(own_clock=False, takes_ground_truth=True)  # PX4 SITL, the emulator: lockstep
+ON_OWN_CLOCK = LinkPolicy(own_clock=True, takes_ground_truth=False)  # a Pixhawk, PX4's HITL rehearsal
 
 
 class BoardError(LinkError):
@@ -100,11 +113,11 @@ class BoardState:
 class BoardSession:
     """One conversation with one board. Times are monotonic seconds unless named `_us`."""
 
-    def __init__(self, link: Link, kind: BoardKind, heartbeat_period_s: float = 1.0,
+    def __init__(self, link: Link, policy: LinkPolicy, heartbeat_period_s: float = 1.0,
                  watchdog_s: float = 1.0, free_run_wait_s: float = 0.01,
                  clock: Callable[[], float] = time.monotonic, reversible_motors: bool = False) -> None:
         self.link = link
-        self.kind = kind
+        self.policy = policy
         self.heartbeat_period_s = heartbeat_period_s
         self.watchdog_s = watchdog_s
         self.free_run_wait_s = free_run_wait_s
@@ -154,6 +167,27 @@ class BoardSession:
             self.request(MAV_CMD_SET_MESSAGE_INTERVAL, (float(msgid), STOP_STREAM))
         self.streams_stopped += unread
 
+    def take_inbox(self) -> list[Message]:
+        """The messages of `INBOX_KINDS` since the last call, in arrival order."""
+        messages, self.inbox = self.inbox, []
+        return messages
+
+    def relay_to_ground_stations(self) -> None:
+        """From now on keep every non-HIL frame for `take_relayed` (a ground station is listening)."""
+        self.relay = []
+
+    def take_relayed(self) -> list[bytes]:
+        """The frames kept for ground stations since the last call."""
+        frames, self.relay = self.relay or [], [] if self.relay is not None else None
+        return frames
+
+    def inject_faults(self, faults: LinkFaults) -> None:
+        """Frames cross `faults` on this link from now on. They act in wall-clock time (as a board's failsafe
+        counts it), so replies are no longer waited for, and the watchdog allows the longest outage."""
+        self.link.faults = faults
+        self.wait_for_replies = False
+        self.watchdog_s += faults.longest_outage_s()
+
     def check_watchdog(self) -> None:
         silent = self.clock() - self._last_rx
         if silent > self.watchdog_s:
@@ -181,7 +215,7 @@ class BoardSession:
             self.relay.append(bytes(msg.get_msgbuf()))
         if kind == "HIL_ACTUATOR_CONTROLS":
             self.actuators = codec.read_actuator_controls(msg, reversible=self.reversible_motors)
-            if self.kind is not BoardKind.HITL:
+            if not self.policy.own_clock:
                 self.lockstep = self.lockstep or self.actuators.lockstep
             if self._awaited_t_us is not None and self.actuators.t_us >= self._awaited_t_us:
                 self._awaited_t_us = None
@@ -261,7 +295,7 @@ class BoardSession:
         """HIL_STATE_QUATERNION (a GroundTruth, what PX4 SITL reads) or ODOMETRY (a LocalTruth, float precision,
         the emulator's exact-state path) to SITL or the emulator; refused for a real board (it would override
         EKF2)."""
-        if self.kind is BoardKind.HITL:
+        if not self.policy.takes_ground_truth:
             return False
         if isinstance(truth, codec.LocalTruth):
             self.link.send_fields("ODOMETRY", codec.odometry_fields(truth))
@@ -274,7 +308,7 @@ class BoardSession:
         step's frame. PX4 only logs it (its `*_groundtruth` topics), stamped with its lockstep clock when it
         reads it: ahead of the next HIL_SENSOR that clock is still this truth's time; in the same write as this
         step's HIL_SENSOR it was read a step early. Never for a real board, as `send_ground_truth`."""
-        if self.kind is not BoardKind.HITL:
+        if self.policy.takes_ground_truth:
             self._truth_ahead = self.link.encode("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
 
     def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
@@ -296,7 +330,7 @@ class BoardSession:
     @property
     def waits_for_replies(self) -> bool:
         """False for a board on its own clock (a Pixhawk, or any board behind injected link faults)."""
-        return self.kind is not BoardKind.HITL and self.wait_for_replies
+        return not self.policy.own_clock and self.wait_for_replies
 
     def await_reply(self) -> codec.ActuatorOutputs | None:
         """The actuator outputs for the step just sent.
@@ -365,6 +399,13 @@ class BoardSession:
         self.state.params.pop(name, None)
         self.link.send("PARAM_SET", target_system=system, target_component=component, param_id=name,
                        param_value=float(value), param_type=MAV_PARAM_TYPE_REAL32)
+
+    def ask(self, ask: Request | ParamSet) -> None:
+        """Send a command or a parameter without waiting for the answer."""
+        if isinstance(ask, ParamSet):
+            self.set_param(ask.name, ask.value)
+        else:
+            self.request(ask.command, ask.params)
 
     def acknowledged(self, command: int) -> int | None:
         return self.state.acks.get(command)

@@ -14,16 +14,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_interface.board import BoardKind, BoardSession
+from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
-from hil.boards.connect import BoardHandle, emulator_config
+from hil.boards.emulator import emulator_config
+from hil.boards.handle import BoardHandle
 from hil.exit_codes import EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
 from hil.host.stop_signals import stopped_by_signals
-from hil.loop.bench import Bench
 from hil.loop.frame import StepFrame
+from hil.loop.sink import FrameSink
+from hil.loop.stepper import LoopResult, Stepper
+from hil.pilots.bench import BenchPilot
+from hil.run.world import build_world, step_us, vehicle_parameters
 from hil.scenario.loader import load_scenario
+from hil.scenario.mission import MissionPlan
 from hil.scenario.schema import Scenario
 
 pytestmark = pytest.mark.slow  # a few seconds of flight in lockstep
@@ -47,16 +52,28 @@ class ThreadBoard:
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self.firmware.run, args=(self.stop.is_set,), daemon=True)
         self.thread.start()
-        session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=1.0)
+        session = BoardSession(Link(pair.master), SIMULATED, watchdog_s=1.0)
         session.wait_heartbeat(10.0)
         pair.release_slave()
-        self.handle = BoardHandle(session, session, BoardKind.EMULATOR, "emulator thread", "emulator, smarc")
+        self.handle = BoardHandle(session, session, "emulator thread")
 
     def close(self) -> None:
         self.stop.set()
         self.thread.join(5.0)
         self.handle.close()
         self.firmware.link.close()
+
+
+def fly(scenario: Scenario, board: ThreadBoard, on_step, paced: bool = False) -> tuple[LoopResult, Stepper]:
+    """The loop with the parts `hil run` gives it (the world, the bench pilot), on the board of this process."""
+    plan = MissionPlan.build(scenario)
+    world = build_world(scenario, board.handle, vehicle_parameters(scenario, plan))
+    stepper = Stepper(world, board.handle, BenchPilot(plan, scenario.end, step_us(scenario)), [FrameSink(on_step)],
+                      step_us(scenario), paced, "none")
+    try:
+        return stepper.run(), stepper
+    finally:
+        world.plant.close()
 
 
 @pytest.fixture
@@ -71,7 +88,7 @@ def test_every_step_reaches_the_sink_once_in_order_and_the_vehicle_holds_the_hov
     scenario = hover(tmp_path, 4.0)
     board_for.append(board := ThreadBoard(scenario))
     frames: list[StepFrame] = []
-    result = Bench(scenario, board.handle, realtime=False, sinks=[frames.append]).run()
+    result, stepper = fly(scenario, board, frames.append)
     assert (result.exit_code, result.reason) == (EXIT_OK, "completed")
     t_us = np.array([f.t_us for f in frames])
     assert t_us[0] == 4000 and np.all(np.diff(t_us) == 4000)  # 250 Hz: one frame per 4000 µs step, none lost
@@ -80,7 +97,7 @@ def test_every_step_reaches_the_sink_once_in_order_and_the_vehicle_holds_the_hov
     altitude_m = np.array([-f.truth.pos_ned[2] for f in mission])
     assert abs(altitude_m.mean() - HOVER_M) < 0.2 and altitude_m.std() < 0.1
     assert all(f.armed for f in mission) and not frames[-1].armed and frames[-1].truth.on_ground
-    assert result.metrics["phase_reached"] == "done"
+    assert stepper.pilot.summary()["phase_reached"] == "done"
 
 
 def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_so_far(tmp_path, board_for):
@@ -93,7 +110,7 @@ def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_s
         if frame.mission_t > 1.0:
             board.stop.set()  # the flight code stops; its end of the pty stays open, silent
 
-    result = Bench(scenario, board.handle, realtime=False, sinks=[sink]).run()
+    result, _ = fly(scenario, board, sink)
     assert result.exit_code == EXIT_BOARD and result.reason.startswith("board/link failure")
     assert frames[-1].mission_t == pytest.approx(1.0, abs=0.1)  # the loop stopped where the board did
     assert np.all(np.diff([f.t_us for f in frames]) == 4000)
@@ -116,7 +133,7 @@ def test_a_stop_signal_whose_interrupt_is_swallowed_where_it_lands_still_ends_th
                 pass  # lost, as in a ctypes callback
 
     with stopped_by_signals():
-        result = Bench(scenario, board.handle, realtime=False, sinks=[swallowing_sink]).run()
+        result, _ = fly(scenario, board, swallowing_sink)
     assert result.exit_code == EXIT_INTERRUPTED and result.reason == "interrupted (SIGTERM)"
     assert frames[-1].mission_t == pytest.approx(1.0, abs=0.02)  # stopped within a step or two
 
@@ -139,9 +156,9 @@ def test_a_paced_step_that_starts_late_because_its_sleep_overslept_counts_as_lat
         real_sleep(seconds)
 
     monkeypatch.setattr(time, "sleep", sleep)
-    result = Bench(scenario, board.handle, realtime=True, sinks=[frames.append]).run()
+    result, stepper = fly(scenario, board, frames.append, paced=True)
     assert result.exit_code == EXIT_OK and not stalls
-    timing = result.metrics["timing"]
+    timing = stepper.timing.figures(paced=True)
     late = [(d["t_s"], d["behind_ms"]) for d in timing["late_steps_detail"]]
     assert any(8.5 <= ms < 12.0 for _, ms in late) and any(29.5 <= ms < 35.0 for _, ms in late), late
     t_slip = next(t for t, ms in late if 29.5 <= ms < 35.0)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from firmware_interface import hil_codec as codec
-from firmware_interface.board import BoardError, BoardKind, BoardSession
+from firmware_interface.board import ON_OWN_CLOCK, SIMULATED, BoardError, BoardSession
 from tests.support.scripted_board import ScriptedBoard
 
 READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
@@ -20,7 +20,7 @@ def board():
 
 
 def test_handshake_reports_what_the_board_is(board):
-    session = BoardSession(board.start(), BoardKind.EMULATOR)
+    session = BoardSession(board.start(), SIMULATED)
     info = session.wait_heartbeat(2.0)
     assert (info.autopilot, info.vehicle_type, info.hil_enabled, info.armed) == (12, 2, True, False)
     for _ in range(40):
@@ -32,7 +32,7 @@ def test_handshake_reports_what_the_board_is(board):
 
 def test_no_heartbeat_gives_the_actionable_message():
     scripted = ScriptedBoard(send_heartbeat=False)
-    session = BoardSession(scripted.start(), BoardKind.HITL)
+    session = BoardSession(scripted.start(), ON_OWN_CLOCK)
     with pytest.raises(BoardError, match=r"no heartbeat on .* within 0.3 s \(no bytes arrived at all\) "
                                          r"— is SYS_HITL=1 set"):
         session.wait_heartbeat(0.3)
@@ -40,7 +40,7 @@ def test_no_heartbeat_gives_the_actionable_message():
 
 
 def test_lockstep_free_runs_then_one_sensor_step_per_actuator_message(board):
-    session = BoardSession(board.start(), BoardKind.SITL, watchdog_s=2.0)
+    session = BoardSession(board.start(), SIMULATED, watchdog_s=2.0)
     session.wait_heartbeat(2.0)
     steps_before_lockstep = 0
     while not session.lockstep:
@@ -54,7 +54,7 @@ def test_lockstep_free_runs_then_one_sensor_step_per_actuator_message(board):
 
 
 def test_arm_is_acknowledged_and_a_refusal_is_an_error(board):
-    session = BoardSession(board.start(), BoardKind.EMULATOR)
+    session = BoardSession(board.start(), SIMULATED)
     session.wait_heartbeat(2.0)
     session.arm(True, timeout_s=2.0)
     assert board.armed
@@ -64,7 +64,7 @@ def test_arm_is_acknowledged_and_a_refusal_is_an_error(board):
 
 
 def test_setpoints_and_offboard_reach_the_board(board):
-    session = BoardSession(board.start(), BoardKind.EMULATOR)
+    session = BoardSession(board.start(), SIMULATED)
     session.wait_heartbeat(2.0)
     session.send_setpoint(100, (1.0, 2.0, -3.0), (0.1, -0.2, 0.3), (0.0, 0.5, 0.0), 0.5)
     session.set_offboard(timeout_s=2.0)
@@ -82,7 +82,7 @@ def test_setpoints_and_offboard_reach_the_board(board):
 
 def test_ground_truth_never_goes_to_a_real_board():
     scripted = ScriptedBoard()
-    session = BoardSession(scripted.start(), BoardKind.HITL)
+    session = BoardSession(scripted.start(), ON_OWN_CLOCK)
     session.wait_heartbeat(2.0)
     for _ in range(20):
         session.exchange(READINGS, truth=TRUTH)
@@ -92,7 +92,7 @@ def test_ground_truth_never_goes_to_a_real_board():
     assert "HIL_STATE_QUATERNION" not in scripted.received
     scripted.stop()
     emulator = ScriptedBoard()
-    session = BoardSession(emulator.start(), BoardKind.EMULATOR)
+    session = BoardSession(emulator.start(), SIMULATED)
     session.wait_heartbeat(2.0)
     session.exchange(READINGS, truth=TRUTH)
     session.poll(0.2)
@@ -102,7 +102,7 @@ def test_ground_truth_never_goes_to_a_real_board():
 
 def test_watchdog_reports_a_silent_board():
     scripted = ScriptedBoard(answer_sensors=False)
-    session = BoardSession(scripted.start(), BoardKind.EMULATOR, watchdog_s=0.3)
+    session = BoardSession(scripted.start(), SIMULATED, watchdog_s=0.3)
     session.wait_heartbeat(2.0)
     scripted.send_heartbeat = False
     with pytest.raises(BoardError, match="board silent for"):

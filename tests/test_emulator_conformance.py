@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from firmware_interface import hil_codec as codec
-from firmware_interface.board import BoardError, BoardKind, BoardSession
+from firmware_interface.board import SIMULATED, BoardError, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
@@ -27,7 +27,7 @@ def emulator():
     pair = open_pty_pair()
     proc = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path],
                             stderr=subprocess.PIPE, text=True)
-    session = BoardSession(Link(pair.master), BoardKind.EMULATOR, watchdog_s=2.0)
+    session = BoardSession(Link(pair.master), SIMULATED, watchdog_s=2.0)
     info = session.wait_heartbeat(10.0)
     pair.release_slave()
     yield session, info, proc

@@ -23,7 +23,8 @@ from mcap.reader import make_reader
 from pymavlink import mavutil
 from pyulog import ULog
 
-from hil.outputs.telemetry import ZenohOptions, subscribe
+from hil.outputs.telemetry import subscribe
+from hil.outputs.zenoh_session import ZenohOptions
 from tests.support.mavsdk_client import read_telemetry
 from tests.support.ports import free_port
 from tests.support.px4_builds import px4_build, px4_root

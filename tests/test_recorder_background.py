@@ -9,6 +9,7 @@ import pytest
 from mcap.reader import make_reader
 
 from firmware_interface.geodesy import LocalFrame
+from hil.loop.sink import Outcome
 from hil.outputs.recorder import Recorder
 
 STEPS = 3000  # 12 s at 250 Hz: several 1 MiB chunks, so chunks are closed on the writer thread
@@ -24,8 +25,8 @@ def _record(run_dir: Path, background: bool) -> list[tuple[str, int, bytes]]:
                                                         "gyro_frd": [0.0, 1e-3 * (k % 7), 0.0]}),
                                        ("actuators", {"t_us": t_us, "motors": [0.5, 0.5, 0.5, 0.5], "armed": True})])
         if k % 500 == 0:
-            recorder.event(t_us, f"event {k}")
-    recorder.finish({"ok": True}, "summary")
+            recorder.on_event(t_us, f"event {k}")
+    recorder.close(Outcome(0, {"ok": True}, "summary"))
     with open(run_dir / "recording.mcap", "rb") as f:
         return [(channel.topic, message.log_time - recorder.start_ns, message.data)
                 for _, channel, message in make_reader(f).iter_messages(log_time_order=False)]
@@ -48,5 +49,5 @@ def test_a_writer_failure_is_raised_on_the_stepping_thread(tmp_path):
         for k in range(2, 1000):
             recorder.write_messages(4000 * k, [("actuators", {"t_us": 4000 * k, "motors": [0.0] * 4,
                                                               "armed": False})])
-    recorder.finish({}, "")
+    recorder.close(Outcome(0, {}, ""))
     assert (tmp_path / "summary.txt").read_text() == ""

@@ -18,6 +18,7 @@ from mcap.reader import make_reader
 
 from hil.host.stop_signals import stopped_by_signals, uninterrupted
 from hil.loop.frame import StepFrame
+from hil.loop.sink import FrameSink
 from hil.run.runner import RunOptions, run_scenario
 from hil.scenario.loader import load_scenario
 from tests.support.cli_runs import emulator_pids
@@ -70,7 +71,7 @@ def test_an_error_nobody_expected_is_exit_4_with_its_traceback_in_bench_log(tmp_
 
     scenario = load_scenario(hover_file(tmp_path, 10.0))
     outcome = run_scenario(scenario, RunOptions(runs_root=tmp_path / "runs", telemetry=None, gcs=[]),
-                           sinks=[broken_sink])
+                           sinks=[FrameSink(broken_sink)])
     assert outcome.exit_code == 4
     summary = assert_run_closed(outcome.run_dir, 4)
     ended = summary_field(summary, "ended")

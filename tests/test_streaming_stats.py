@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hil.judge.streaming_stats import Extremes, LogHistogram
+from hil.loop.streaming_stats import Extremes, LogHistogram
 
 
 def test_extremes_equal_numpy_on_the_whole_series():

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from hil.outputs.telemetry import DEFAULT_RATES_HZ, ZenohOptions, fetch_meta, open_session
+from hil.outputs.telemetry import DEFAULT_RATES_HZ, fetch_meta
+from hil.outputs.zenoh_session import ZenohOptions, open_session
 from tests.support.cli_runs import wait_flying
 from tests.support.ports import free_port, wait_listening
 

@@ -122,24 +122,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
-    """`hil run`'s options, every link, PX4 build and address checked before any board starts; None after
-    one line naming the option that is wrong."""
+    """`hil run`'s options, the board, every link and address checked before any board starts; None after one
+    line naming the option that is wrong."""
     from firmware_interface.link import LinkError, parse_connection
-    from hil.boards.px4 import Px4Build, Px4SetupError
+    from hil.boards.registry import BoardSpecError
     from hil.run.runner import RunOptions
 
-    named = [("--gcs", e) for e in args.gcs or []] + [(o, v) for o, v in (("--port", args.port),
-                                                                           ("--mavlink", args.mavlink)) if v]
-    for option, endpoint in named:
+    for endpoint in args.gcs or []:
         try:
-            parse_connection(endpoint, args.baud)
+            parse_connection(endpoint)
         except LinkError as exc:
-            print(f"hil run: {option} {endpoint}: {exc}", file=sys.stderr)
+            print(f"hil run: --gcs {endpoint}: {exc}", file=sys.stderr)
             return None
     try:
-        px4 = Px4Build.locate(args.px4, "--px4") if args.px4 else None
-        px4_hitl = Px4Build.locate(args.px4_hitl, "--px4-hitl") if args.px4_hitl else None
-    except Px4SetupError as exc:
+        board = _board(args)
+    except BoardSpecError as exc:
         print(f"hil run: {exc}", file=sys.stderr)
         return None
     if args.foxglove is not None:
@@ -150,15 +147,29 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
         except ValueError as exc:
             print(f"hil run: --foxglove {exc}", file=sys.stderr)
             return None
-    return RunOptions(port=args.port, foxglove=args.foxglove, mavlink=args.mavlink, realtime=args.realtime, px4=px4,
-                      px4_hitl=px4_hitl, connect_timeout_s=args.connect_timeout,
-                      gcs=[] if args.no_gcs else args.gcs, baud=args.baud, runs_root=Path(args.runs),
-                      keep_failed=args.keep_failed, telemetry=None if args.no_telemetry else _zenoh_options(args),
+    return RunOptions(board=board, foxglove=args.foxglove, realtime=args.realtime,
+                      gcs=[] if args.no_gcs else args.gcs, runs_root=Path(args.runs), keep_failed=args.keep_failed,
+                      telemetry=None if args.no_telemetry else _zenoh_options(args),
                       telemetry_rates_hz=scenario.telemetry.rates_hz)
 
 
+def _board(args: argparse.Namespace) -> Any:
+    """The board the options name: --board SPEC, or its short forms --port, --px4, --px4-hitl (the emulator when
+    none is given)."""
+    from hil.boards.registry import BoardOptions, BoardSpecError, board_target
+
+    named = [(option, spec) for option, spec in (("--board", args.board), ("--port", args.port and f"port:{args.port}"),
+                                                 ("--px4", args.px4 and f"px4:{args.px4}"),
+                                                 ("--px4-hitl", args.px4_hitl and f"px4-hitl:{args.px4_hitl}")) if spec]
+    option, spec = named[0] if named else ("--board", "emulator")
+    if args.mavlink and not spec.startswith("port:"):
+        raise BoardSpecError("--mavlink names the command link of a board given with --port (a PX4 SITL started "
+                             "by hand)")
+    return board_target(spec, BoardOptions(args.mavlink, args.baud, args.connect_timeout, named_by=option))
+
+
 def _zenoh_options(args: argparse.Namespace):
-    from hil.outputs.telemetry import ZenohOptions
+    from hil.outputs.zenoh_session import ZenohOptions
 
     endpoints = bool(args.zenoh_connect or args.zenoh_listen)
     return ZenohOptions(connect=args.zenoh_connect or [], listen=args.zenoh_listen or [],
@@ -236,7 +247,7 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
 
     from hil.app.foxglove_bridge import bridge_zenoh
     from hil.outputs.foxglove_live import parse_address
-    from hil.outputs.telemetry import open_session
+    from hil.outputs.zenoh_session import open_session
 
     try:
         parse_address(args.listen)
@@ -360,6 +371,8 @@ def _add_run_command(sub: argparse._SubParsersAction) -> None:
         "(a bench bug; traceback in the run's bench.log), 130 interrupted."))
     run.add_argument("scenario", help="scenario YAML file")
     board = run.add_mutually_exclusive_group()
+    board.add_argument("--board", metavar="SPEC", help="the board as one name: emulator (the default), px4:DIR, "
+                                                       "px4-hitl:DIR, port:CONNECTION")
     board.add_argument("--port", help="board connection: /dev/ttyACM0, serial:PATH:BAUD, tcpin:HOST:PORT, tcp:, "
                                       "udpin:, udpout:")
     board.add_argument("--px4", metavar="DIR", help="start PX4 SITL from this build for the run (lockstep)")

@@ -51,7 +51,7 @@ def bridge_zenoh(session: zenoh.Session, run_id: str | None, address: str, wait_
             ended.wait(0.2)
     finally:
         subscriber.undeclare()
-        server.close()
+        server.stop()
     return f"run {chosen} ended" if ended.is_set() else "stopped"
 
 

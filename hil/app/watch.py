@@ -16,7 +16,8 @@ from rich.live import Live
 from rich.table import Table
 
 from firmware_interface.emulator.geometry import quat_to_euler
-from hil.outputs.telemetry import KEY_PREFIX, ZenohOptions, close_within, open_session
+from hil.outputs.telemetry import KEY_PREFIX
+from hil.outputs.zenoh_session import ZenohOptions, close_within, open_session
 
 REFRESH_HZ = 4.0
 

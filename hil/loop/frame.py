@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 from hil.scenario.environment import EnvironmentSample
 from hil.scenario.reference import RefSample
@@ -24,6 +26,7 @@ class StepFrame:
     armed: bool
     environment: EnvironmentSample
     board: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # board messages of this step
+    board_offset_ned: np.ndarray | None = None  # the board's local frame - the truth, once aligned (at arming)
     step_wall_s: float = 0.0
     round_trip_s: float | None = None
     messages: list[tuple[str, dict[str, Any]]] | None = None  # the channel payloads, built once (recorder)

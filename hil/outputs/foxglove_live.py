@@ -17,6 +17,8 @@ import orjson
 from firmware_interface.geodesy import LocalFrame
 from hil.channels import CHANNEL_MODELS
 from hil.loop.frame import StepFrame
+from hil.loop.sink import Outcome
+from hil.outputs.context import OutputContext, OutputError
 from hil.outputs.foxglove_channels import json_channels, view_channels
 from hil.outputs.foxglove_messages import FoxgloveViews
 from hil.outputs.recorder import frame_messages
@@ -73,12 +75,25 @@ class FoxgloveServer:
                 self._next_scene_us = t_us + SCENE_PERIOD_US
                 self._protobuf["foxglove/scene"].log(self._scene.encode(), log_time=stamp)
 
-    def __call__(self, frame: StepFrame) -> None:
-        """The bench sink."""
+    def on_step(self, frame: StepFrame) -> None:
         self.publish(frame.t_us, frame_messages(frame))
 
-    def event(self, t_us: int, text: str) -> None:
+    def on_event(self, t_us: int, text: str) -> None:
         self.publish(t_us, [("events", {"t_us": t_us, "text": text})])
 
-    def close(self) -> None:
+    def close(self, outcome: Outcome) -> None:
+        self.stop()
+
+    def stop(self) -> None:
         self.server.stop()
+
+
+def open_output(context: OutputContext) -> FoxgloveServer | None:
+    """The live view when the run was asked for one (`--foxglove`); a taken or invalid address is bad input."""
+    if context.foxglove is None:
+        return None
+    try:
+        return FoxgloveServer(context.foxglove, context.local_frame, context.start_ns, context.scene,
+                              context.rates_hz)
+    except RuntimeError as exc:  # foxglove-sdk's FoxgloveError: the address is taken or invalid
+        raise OutputError(f"--foxglove {context.foxglove}: {exc}") from exc

@@ -30,7 +30,6 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -46,6 +45,8 @@ from hil.channels import BOARD_CHANNEL, RECORDED_CHANNELS
 from hil.host.rt_priority import current_fifo_priority, run_just_below
 from hil.host.stop_signals import uninterrupted
 from hil.loop.frame import StepFrame
+from hil.loop.sink import Outcome
+from hil.outputs.context import OutputContext
 from hil.outputs.foxglove_channels import byte_loggers, json_channels, view_channels
 from hil.outputs.foxglove_messages import FoxgloveViews
 
@@ -130,9 +131,10 @@ class Recorder:
     """Owns the run directory of one run."""
 
     def __init__(self, run_dir: Path, resolved_scenario: dict[str, Any], meta: dict[str, Any],
-                 local_frame: LocalFrame, scene: Callable[[int], Any] | None = None) -> None:
+                 local_frame: LocalFrame, scene: Any = None, start_ns: int | None = None,
+                 background: bool = False) -> None:
         self.dir = run_dir
-        self.start_ns = time.time_ns()
+        self.start_ns = time.time_ns() if start_ns is None else start_ns
         scenario_text = yaml.safe_dump(resolved_scenario, sort_keys=False)
         (run_dir / "scenario.yaml").write_text(scenario_text)
         versions = {p: _version(p) for p in ("hil-bench", "fmpy", "pymavlink", "numpy", "eclipse-zenoh")}
@@ -152,13 +154,13 @@ class Recorder:
         self.closed = False
         if scene is not None:
             with uninterrupted():
-                self._foxglove["foxglove/scene"](scene(self.start_ns).encode(), self.start_ns)
+                self._foxglove["foxglove/scene"](scene.encode(), self.start_ns)
         self._queue: queue.Queue[tuple[int, list[tuple[str, dict[str, Any]]]] | None] = queue.Queue(QUEUE_STEPS)
         self._failure: BaseException | None = None  # what stopped the writer thread, raised on the next write
         self._thread: threading.Thread | None = None  # started by the first write (see `write_messages`)
-        self.background = False  # write on the writer thread (set for a run paced on the wall clock)
+        self.background = background  # write on the writer thread (a run paced on the wall clock)
 
-    def record(self, frame: StepFrame) -> None:
+    def on_step(self, frame: StepFrame) -> None:
         self.write_messages(frame.t_us, frame_messages(frame))
 
     def write_messages(self, t_us: int, messages: list[tuple[str, dict[str, Any]]]) -> None:
@@ -202,13 +204,14 @@ class Recorder:
         for topic, message in self._views.messages(messages):
             views[topic](message.encode(), stamp)
 
-    def event(self, t_us: int, text: str) -> None:
+    def on_event(self, t_us: int, text: str) -> None:
         self.write_messages(t_us, [("events", {"t_us": t_us, "text": text})])
 
-    def finish(self, metrics: dict[str, Any], summary: str) -> None:
+    def close(self, outcome: Outcome) -> None:
         """Metrics and summary first, then the recording's end: a stop signal that arrives meanwhile waits
         for the queued steps and the file's summary, and is raised once everything is on disk."""
-        metrics_text = json.dumps(metrics, indent=2, default=float)
+        metrics_text = json.dumps(outcome.metrics, indent=2, default=float)
+        summary = outcome.summary
         (self.dir / "metrics.json").write_text(metrics_text)
         (self.dir / "summary.txt").write_text(summary)
         if self.closed:
@@ -221,3 +224,10 @@ class Recorder:
                 sys.setswitchinterval(self._switch_interval_s)
             self._writer.write_metadata("metrics", {"json": metrics_text, "summary": summary})
             self._writer.close()
+
+
+def open_output(context: OutputContext) -> Recorder:
+    """The run directory's files and the recording: always. A paced run writes on a thread of its own, so that a
+    chunk's compression never delays a step."""
+    return Recorder(context.run_dir, context.resolved_scenario, context.meta, context.local_frame, context.scene,
+                    context.start_ns, background=context.paced)

@@ -9,12 +9,9 @@ channel, in samples per second of simulated time (equal to wall time when paced 
 
 from __future__ import annotations
 
-import json
-import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from pathlib import Path
+from dataclasses import dataclass
 from typing import Any
 
 import orjson
@@ -22,7 +19,10 @@ import zenoh
 
 from hil.channels import CHANNEL_MODELS
 from hil.loop.frame import StepFrame
+from hil.loop.sink import Outcome
+from hil.outputs.context import OutputContext, OutputError
 from hil.outputs.recorder import frame_messages
+from hil.outputs.zenoh_session import ZenohOptions, close_within, open_session
 
 DEFAULT_RATES_HZ: dict[str, float] = {
     "state": 50.0, "reference": 50.0, "sensors/imu": 50.0, "sensors/gps": 10.0, "sensors/baro": 10.0,
@@ -31,6 +31,7 @@ DEFAULT_RATES_HZ: dict[str, float] = {
 LINK_PERIOD_US = 1_000_000
 KEY_PREFIX = "hil"
 FLUSH_S = 0.2
+ZENOH_CLOSE_S = 1.0  # the longest a stalled subscriber may hold up the end of a run
 
 
 class Decimator:
@@ -71,41 +72,6 @@ class Decimator:
         return True
 
 
-@dataclass
-class ZenohOptions:
-    """Peer mode with multicast scouting by default (zero configuration on one machine); `connect` and
-    `listen` endpoints (e.g. tcp/192.0.2.10:7447) join an existing Zenoh network; or a config file."""
-
-    connect: list[str] = field(default_factory=list)
-    listen: list[str] = field(default_factory=list)
-    config_file: Path | None = None
-    multicast_scouting: bool = True
-
-
-def close_within(close: Callable[[], None], timeout_s: float = 1.0) -> None:
-    """Run a Zenoh close in a daemon thread and wait at most `timeout_s`: a stalled or vanished peer can
-    hold a session's close for many seconds, and nobody should wait for it."""
-    closer = threading.Thread(target=close, name="zenoh-close", daemon=True)
-    closer.start()
-    closer.join(timeout_s)
-
-
-def open_session(options: ZenohOptions) -> zenoh.Session:
-    config = zenoh.Config.from_file(str(options.config_file)) if options.config_file else zenoh.Config()
-    if options.connect:
-        config.insert_json5("connect/endpoints", json.dumps(options.connect))
-    if options.listen:
-        config.insert_json5("listen/endpoints", json.dumps(options.listen))
-    if not options.multicast_scouting:
-        config.insert_json5("scouting/multicast/enabled", "false")
-    elif not options.config_file:
-        # Zenoh's open waits 0.5 s for multicast scouting to find peers before it returns; a peer on this machine
-        # answers within ~1 ms (a subscriber already running missed only the first of 1 kHz samples put right
-        # after an open without the wait), and one that joins later gets the run from then on, as always
-        config.insert_json5("scouting/delay", "0")
-    return zenoh.open(config)
-
-
 class TelemetryPublisher:
     """A bench sink that publishes every channel at its rate, plus meta, liveliness and the summary."""
 
@@ -133,7 +99,7 @@ class TelemetryPublisher:
         self._link_counters = link_counters
         self.published = 0
 
-    def __call__(self, frame: StepFrame) -> None:
+    def on_step(self, frame: StepFrame) -> None:
         t_us, passes = frame.t_us, self._decimator.passes
         for channel, payload in frame_messages(frame):
             if passes(channel, t_us):
@@ -141,24 +107,42 @@ class TelemetryPublisher:
         if self._link_counters is not None and self._decimator.link_due(t_us):
             self._put("board/link", {"t_us": t_us, **self._link_counters()})
 
-    def event(self, t_us: int, text: str) -> None:
+    def on_event(self, t_us: int, text: str) -> None:
         self._put("events", {"t_us": t_us, "text": text})
 
     def _put(self, channel: str, payload: dict[str, Any]) -> None:
         self._publishers[channel].put(orjson.dumps(payload, option=orjson.OPT_SERIALIZE_NUMPY))
         self.published += 1
 
-    def summary(self, t_us: int, metrics: dict[str, Any], text: str) -> None:
-        self._put("summary", {"t_us": t_us, "metrics": metrics, "text": text})
+    def close(self, outcome: Outcome) -> None:
+        """The summary to subscribers, then undeclare everything and close the session (zenoh-python can hang
+        on exit otherwise), in bounded time: a stopped or stalled subscriber can hold a put or the session's close
+        for many seconds, and the bench does not wait for it."""
+        def finish() -> None:
+            self._put("summary", {"t_us": outcome.t_us, "metrics": outcome.metrics, "text": outcome.summary})
+            time.sleep(FLUSH_S)  # the last samples (summary, final events) leave before the token goes
+            self._token.undeclare()
+            self._queryable.undeclare()
+            for publisher in self._publishers.values():
+                publisher.undeclare()
+            self.session.close()
 
-    def close(self) -> None:
-        """Undeclare everything before the session closes (zenoh-python can hang on exit otherwise).
-        The pause lets the last samples (summary, final events) leave before the token goes."""
-        time.sleep(FLUSH_S)
-        self._token.undeclare()
-        self._queryable.undeclare()
-        for publisher in self._publishers.values():
-            publisher.undeclare()
+        close_within(finish, ZENOH_CLOSE_S)
+
+
+def open_output(context: OutputContext) -> TelemetryPublisher | None:
+    """Zenoh telemetry unless the run was asked for none; a Zenoh configuration that does not open is bad input
+    (before any board starts)."""
+    if context.telemetry is None:
+        return None
+    try:
+        session = open_session(context.telemetry)
+    except zenoh.ZError as exc:
+        raise OutputError(f"Zenoh: {str(exc).split(' at /')[0]}") from exc
+    run_id = context.run_dir.name
+    return TelemetryPublisher(session, run_id, {"run_id": run_id, **context.meta,
+                                                "scenario": context.resolved_scenario},
+                              context.rates_hz, context.link_counters)
 
 
 @dataclass

@@ -22,7 +22,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
+from firmware_interface.board import BoardError
 from hil.boards.px4.build import Px4Build
+from hil.host.lifetime import die_with_parent
+from hil.host.rt_priority import board_on_its_own_core
 
 MAX_INSTANCES = 16
 SHUTDOWN_WAIT_S = 0.5  # `px4-shutdown` ends PX4 in ~10 ms; then SIGTERM, then SIGKILL
@@ -78,6 +81,8 @@ def claim_instance(reserve: Callable[[int], T | None]) -> tuple[InstanceClaim, T
 class Px4Process:
     """One PX4 daemon started by the bench; its console goes to `log_path`."""
 
+    paced_with_bench = False  # PX4 gives its own tasks their scheduling
+
     def __init__(self, build: Px4Build, claim: InstanceClaim, rootfs: Path, log_path: Path,
                  env: dict[str, str], extra_args: tuple[str, ...] = (),
                  preexec: Callable[[], None] | None = None) -> None:
@@ -109,6 +114,13 @@ class Px4Process:
             return None
         how = f"was killed by signal {-code}" if code < 0 else f"exited with code {code}"
         return f"PX4 {how}: {self.log_tail() or 'no output'} (console: {self.log_path})"
+
+    def check_starting(self) -> None:
+        """Raise BoardError when PX4 has exited before its first heartbeat (while the bench waits for it)."""
+        code = self.exit_code()
+        if code is not None:
+            raise BoardError(f"PX4 exited during start-up (code {code}): {self.log_tail() or 'no output'} "
+                             f"(console: {self.log_path})")
 
     def log_tail(self, lines: int = 3) -> str:
         try:
@@ -142,3 +154,9 @@ class Px4Process:
     def _signal_group(self, signum: int) -> None:
         with suppress(ProcessLookupError, PermissionError):
             os.killpg(self.popen.pid, signum)
+
+
+def child_setup(instance: int) -> None:
+    """In PX4's process before it runs: it dies with the bench, and runs on a CPU of its own per instance."""
+    die_with_parent()
+    board_on_its_own_core(instance)

@@ -1,0 +1,94 @@
+"""The built-in emulator: the software flight controller in its own process on a fresh pty, in lockstep."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from firmware_interface.board import SIMULATED, BoardError, BoardSession
+from firmware_interface.link import Link, open_pty_pair
+from hil.boards.gcs_relay import DEFAULT_GCS
+from hil.boards.handle import BoardHandle
+from hil.boards.target import BoardPolicy, GroundTruthUse, LinkSettings
+from hil.scenario.schema import Scenario
+from hil.sensors.config import GPS_PROFILES, resolve
+
+# the emulator's first heartbeat follows its flight code's compilation: ~0.2 s from the cache, ~8 s the first
+# time on a machine, longer when runs start side by side; a process that dies is reported at once
+EMULATOR_START_S = 60.0
+
+
+@dataclass
+class EmulatorProcess:
+    popen: subprocess.Popen[bytes]
+    log_path: Path
+    paced_with_bench = True  # our own process: a paced run raises it to real-time priority with the bench
+
+    def exit_note(self) -> str | None:
+        code = self.popen.poll()
+        return None if code is None else f"the emulator exited with code {code} (see {self.log_path})"
+
+    def stop(self) -> None:
+        if self.popen.poll() is None:
+            self.popen.terminate()
+            try:
+                self.popen.wait(2.0)
+            except subprocess.TimeoutExpired:
+                self.popen.kill()
+                self.popen.wait()
+
+
+def emulator_config(scenario: Scenario) -> dict:
+    """What the emulator is told: the scenario's board settings, and EKF2_GPS_DELAY set to the receiver's
+    delay, as a user would set the parameter for the GPS on the vehicle."""
+    board = scenario.board
+    gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
+    config = {"airframe": board.airframe or scenario.vehicle.preset, "controller": board.controller,
+              "state_source": board.state_source, **board.config}
+    estimator = dict(config.get("estimator", {}))
+    estimator.setdefault("gps_delay_s", gps.delay_s)
+    config["estimator"] = estimator
+    return config
+
+
+@dataclass(frozen=True)
+class EmulatorTarget:
+    label = "emulator"
+
+    def policy(self, scenario: Scenario) -> BoardPolicy:
+        truth: GroundTruthUse = "to_fly" if scenario.board.state_source == "truth" else "none"
+        return BoardPolicy("emulator", f"emulator, controller {scenario.board.controller}", wall_clock=False,
+                           ground_truth=truth, px4=False, default_gcs=(DEFAULT_GCS,),
+                           stops_unread_streams=False)  # it streams only what the bench reads
+
+    def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
+        config_path = run_dir / "emulator.yaml"
+        config_path.write_text(yaml.safe_dump(emulator_config(scenario), sort_keys=False))
+        pair = open_pty_pair()
+        log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
+        popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
+                                  "--config", str(config_path)], stdout=log, stderr=log,
+                                 start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
+        session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
+                               reversible_motors=settings.reversible_motors)
+        handle = BoardHandle(session, session, f"emulator on {pair.slave_path}",
+                             EmulatorProcess(popen, run_dir / "emulator.log"))
+
+        def still_starting() -> None:
+            note = handle.exit_note()
+            if note is not None:
+                raise BoardError(f"{note} before its first heartbeat")
+
+        try:
+            session.wait_heartbeat(EMULATOR_START_S, still_starting=still_starting,
+                                   hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
+        except BaseException:
+            handle.close()
+            raise
+        finally:
+            pair.release_slave()  # from now on the emulator's end closing reads as LinkLost
+        return handle

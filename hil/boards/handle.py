@@ -1,0 +1,69 @@
+"""An attached board as the run sees it: its links, what flies on it, the process the bench started for it, and
+the ground-station relay."""
+
+from __future__ import annotations
+
+import subprocess
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from firmware_interface.board import BoardSession
+from hil.boards.gcs_relay import GcsBridge
+from hil.host.process_cpu import cpu_seconds
+
+
+class BoardProcess(Protocol):
+    """A board process the bench started (the emulator, PX4) and stops at the end of the run."""
+
+    popen: subprocess.Popen[bytes]
+    paced_with_bench: bool  # a paced run raises it to real-time priority with the bench (a PX4 schedules itself)
+
+    def stop(self) -> None: ...
+
+    def exit_note(self) -> str | None: ...
+
+
+@dataclass
+class BoardHandle:
+    session: BoardSession  # the HIL link: sensors out, actuators in
+    commands: BoardSession  # heartbeat, commands, setpoints: the same session unless the board has its own link
+    description: str
+    process: BoardProcess | None = None
+    params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
+    gcs: GcsBridge | None = None  # relays the board's traffic to ground stations and back
+
+    @property
+    def own_command_link(self) -> bool:
+        """PX4 SITL's commands come on a UDP link its own thread serves, apart from the lockstep HIL link."""
+        return self.commands is not self.session
+
+    @property
+    def sessions(self) -> list[BoardSession]:
+        """Each link to the board once: the HIL link, and the command link when it is a separate one."""
+        return [self.session, self.commands] if self.own_command_link else [self.session]
+
+    def relay_to(self, gcs: GcsBridge) -> None:
+        self.gcs = gcs
+        for session in self.sessions:
+            session.relay_to_ground_stations()
+
+    def realtime_pids(self) -> list[int]:
+        """The board processes a paced run raises to real-time priority with the bench."""
+        return [self.process.popen.pid] if self.process is not None and self.process.paced_with_bench else []
+
+    def cpu_s(self) -> float | None:
+        """CPU seconds the board's process has used, when the bench started it (None for a board attached)."""
+        return cpu_seconds(self.process.popen.pid) if self.process is not None else None
+
+    def exit_note(self) -> str | None:
+        """Why the board's process ended, when the bench started it and it is gone (a board failure's cause)."""
+        return self.process.exit_note() if self.process is not None else None
+
+    def close(self) -> None:
+        """Stop what the bench started (PX4 included: nothing is left running), then close the links."""
+        if self.process is not None:
+            self.process.stop()
+        for session in self.sessions:
+            session.link.close()
+        if self.gcs is not None:
+            self.gcs.close()

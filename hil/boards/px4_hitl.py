@@ -1,0 +1,63 @@
+"""PX4's HITL code path started by the bench from a px4_sitl_nolockstep build, its HIL link on a pty: the bench
+then flies the same serial path as with a Pixhawk on /dev/ttyACM0, on the wall clock."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+from pathlib import Path
+
+from firmware_interface.board import ON_OWN_CLOCK, BoardSession
+from firmware_interface.link import Link, open_pty_pair
+from hil.boards.gcs_relay import DEFAULT_GCS
+from hil.boards.handle import BoardHandle
+from hil.boards.px4 import Px4Build, Px4Process, claim_instance
+from hil.boards.px4.hitl_startup import write_hitl_startup
+from hil.boards.px4.parameters import px4_parameters
+from hil.boards.px4.process import child_setup
+from hil.boards.px4_sitl import PX4_START_TIMEOUT_S
+from hil.boards.target import BoardPolicy, LinkSettings
+from hil.scenario.schema import Scenario
+
+HITL_POLICY = BoardPolicy("px4_hitl", "PX4 (its own estimator and controllers)",
+                          wall_clock=True, ground_truth="none", px4=True, default_gcs=(DEFAULT_GCS,),
+                          stops_unread_streams=True)
+
+
+@dataclass(frozen=True)
+class Px4HitlTarget:
+    build: Px4Build
+
+    @property
+    def label(self) -> str:
+        return f"PX4 HITL rehearsal from {self.build.root}"
+
+    def policy(self, scenario: Scenario) -> BoardPolicy:
+        return HITL_POLICY
+
+    def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
+        pair = open_pty_pair()
+        claim, _ = claim_instance(lambda n: n)
+        try:
+            script = write_hitl_startup(run_dir.resolve() / "px4-hitl.rcS", pair.slave_path)  # PX4 runs elsewhere
+            px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
+                             extra_args=("-s", str(script)), preexec=partial(child_setup, claim.number))
+        except BaseException:
+            claim.release()
+            pair.master.close()
+            pair.release_slave()
+            raise
+        session = BoardSession(Link(pair.master, tap=settings.tap), ON_OWN_CLOCK, watchdog_s=settings.watchdog_s,
+                               reversible_motors=settings.reversible_motors)
+        handle = BoardHandle(session, session,
+                             f"PX4 HITL rehearsal, instance {claim.number} ({self.build.root}) on {pair.slave_path}",
+                             px4, px4_parameters(scenario))
+        try:
+            session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"is {self.build.root} a px4_sitl_nolockstep build? "
+                                   f"see {px4.log_path}", still_starting=px4.check_starting)
+        except BaseException:
+            handle.close()
+            raise
+        finally:
+            pair.release_slave()  # PX4 holds its end now
+        return handle

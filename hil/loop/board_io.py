@@ -1,0 +1,114 @@
+"""One step's frames to the board, in the order its links need: everything on one link (the emulator, a serial
+board, PX4's HITL path), or PX4 SITL's lockstep HIL link beside its own command link."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.geodesy import LocalFrame
+from firmware_interface.link import Message
+from hil.boards.handle import BoardHandle
+from hil.boards.target import GroundTruthUse
+from hil.loop.timing import LoopTiming
+from hil.scenario.reference import RefSample
+from plant_fmu.state import PlantState
+
+
+class BoardIO:
+    """A board with one link: the setpoint goes in the step's one write, ahead of the sensors, and the board
+    flies it this step. The next step is decided after the board's reply, which carries what it said."""
+
+    decides_early = False
+    setpoint_in_frame = True
+
+    def __init__(self, board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,
+                 timing: LoopTiming) -> None:
+        self.board = board
+        self.truth_use = truth_use
+        self.frame = frame
+        self.steady_wind_ned = steady_wind_ned
+        self.timing = timing
+
+    def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
+                  readings: codec.SensorReadings, gps: codec.GpsFix | None, state: PlantState) -> None:
+        """This step's frame out first, in one write; then what may overlap the board's computation."""
+        session = self.board.session
+        session.link.begin_batch()
+        if reference is not None and self.setpoint_in_frame:
+            self._send_setpoint(t_us, reference, offset_ned)
+        session.send_step(readings, gps, self._local_truth(t_us, state) if self.truth_use == "to_fly" else None)
+        session.link.flush()
+        self.timing.lap("encode_and_send")
+        self._after_frame(t_us, reference, offset_ned, state)
+        if self.board.gcs is not None:
+            self._relay_gcs()
+        self.timing.lap("command_link_and_relay")
+
+    def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
+                     state: PlantState) -> None:
+        if self.truth_use == "for_log":
+            self.board.session.send_ground_truth_ahead(self._ground_truth(t_us, state))
+
+    def take_inbox(self) -> list[Message]:
+        """This step's messages from every link to the board, taken as they came (decoded later)."""
+        return self.board.session.take_inbox()
+
+    def _send_setpoint(self, t_us: int, reference: RefSample, offset_ned: np.ndarray | None) -> None:
+        """The reference in the board's own local frame (`offset_ned`, from arming on)."""
+        offset = offset_ned if offset_ned is not None else 0.0
+        self.board.commands.send_setpoint(t_us // 1000, tuple(reference.pos_ned + offset), tuple(reference.vel_ned),
+                                          tuple(reference.acc_ned), reference.yaw)
+
+    def _relay_gcs(self) -> None:
+        """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames."""
+        gcs, board = self.board.gcs, self.board
+        assert gcs is not None
+        for session in board.sessions:
+            frames = session.take_relayed()
+            if frames:
+                gcs.to_gcs(frames)
+        for frame in gcs.from_gcs():
+            board.commands.link.send_frame(frame)
+
+    @staticmethod
+    def _local_truth(t_us: int, state: PlantState) -> codec.LocalTruth:
+        """The true state for the emulator's exact-state path (ODOMETRY, float precision)."""
+        return codec.LocalTruth(t_us, tuple(state.pos_ned.tolist()), tuple(state.vel_ned.tolist()),
+                                tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()))
+
+    def _ground_truth(self, t_us: int, state: PlantState) -> codec.GroundTruth:
+        """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log."""
+        pos = state.pos_ned
+        lat, lon, alt = self.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
+        vel = state.vel_ned
+        return codec.GroundTruth(t_us, tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()),
+                                 lat, lon, alt, tuple(vel.tolist()), tuple(state.specific_force_frd.tolist()),
+                                 float(np.linalg.norm(vel - self.steady_wind_ned)))
+
+
+class SplitBoardIO(BoardIO):
+    """PX4 SITL: its commands, ACKs and states come on a UDP link its own thread serves, so no step of ours is the
+    one they belong to. The setpoint goes there after the sensor frame (it never had a defined order against it),
+    and the next step is decided while PX4 computes this one: PX4 waits for nothing but its sensors."""
+
+    decides_early = True
+    setpoint_in_frame = False
+
+    def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
+                     state: PlantState) -> None:
+        super()._after_frame(t_us, reference, offset_ned, state)
+        commands = self.board.commands
+        if reference is not None:
+            self._send_setpoint(t_us, reference, offset_ned)
+        commands.poll(0.0)
+        commands.service(t_us * 1e-6 if self.board.session.lockstep else None)
+
+    def take_inbox(self) -> list[Message]:
+        return self.board.session.take_inbox() + self.board.commands.take_inbox()
+
+
+def board_io(board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,
+             timing: LoopTiming) -> BoardIO:
+    kind = SplitBoardIO if board.own_command_link else BoardIO
+    return kind(board, truth_use, frame, steady_wind_ned, timing)

@@ -1,0 +1,216 @@
+"""The bench loop: scenario inputs → plant step → sensors → board → motor commands, with pacing.
+
+It only steps, sends, waits and hands frames on; its parts are passed in (as RotorPy's `simulate()` takes them):
+the world it simulates, the board, the pilot that decides each step, and the sinks. Lockstep with the emulator and
+PX4 SITL (free-run until the first actuator reply); wall-clock real time with a board on its own clock, injected
+link faults, or `paced=True`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import traceback
+from collections.abc import Callable
+from contextlib import nullcontext
+from dataclasses import dataclass
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.board import BoardError
+from firmware_interface.geodesy import LocalFrame
+from firmware_interface.link import LinkError, Message
+from firmware_interface.link.faults import LinkFaults
+from hil.boards.handle import BoardHandle
+from hil.boards.target import GroundTruthUse
+from hil.exit_codes import EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
+from hil.host.rt_priority import frozen_heap, realtime_priority
+from hil.host.stop_signals import stop_requested
+from hil.loop.board_io import board_io
+from hil.loop.board_messages import decode_board_message
+from hil.loop.frame import StepFrame
+from hil.loop.pacing import Pacer
+from hil.loop.pilot import Decision, Pilot, PilotView, RunAborted
+from hil.loop.sink import Sink
+from hil.loop.timing import LoopTiming
+from hil.scenario.environment import Environment, EnvironmentSample
+from hil.scenario.expressions import EvaluationError
+from hil.sensors import SensorSuite, TrueState
+from plant_fmu import Plant, PlantError
+
+Progress = Callable[[str, float, float, float], None]  # phase, bench time (s), fraction flown, real-time factor
+
+
+@dataclass
+class World:
+    """What the bench simulates and the loop steps: the plant, its sensors, the environment acting on it, the
+    local frame of the ground truth, and the faults injected on the links to the board."""
+
+    plant: Plant
+    sensors: SensorSuite
+    environment: Environment
+    local_frame: LocalFrame
+    link_faults: list[LinkFaults]
+
+
+@dataclass
+class LoopResult:
+    exit_code: int
+    reason: str
+    internal_error: str | None  # the traceback of an error nobody expected
+
+
+class Stepper:
+    def __init__(self, world: World, board: BoardHandle, pilot: Pilot, sinks: list[Sink], dt_us: int,
+                 paced: bool, truth_use: GroundTruthUse, progress: Progress | None = None) -> None:
+        self.world, self.board, self.pilot, self.sinks = world, board, pilot, sinks
+        self.dt_us, self.dt = dt_us, dt_us / 1e6  # the bench's clock is integer µs; the plant's step follows it
+        self.paced = paced
+        self.progress = progress
+        self.timing = LoopTiming()
+        self.io = board_io(board, truth_use, world.local_frame, world.environment.steady, self.timing)
+        self.pacer = Pacer(self.dt, self.timing)
+        self.view = PilotView(board.commands.state, board.commands.link.name, self.emit, board.params)
+        self.t_us = 0
+        self.phase = ""  # the latest decision's phase and mission clock (for the progress line and messages)
+        self.mission_t = -math.inf
+        self.state = world.plant.state()  # the true state after the latest step
+        self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        self.armed = False
+        self.failsafe_texts: list[tuple[float, str]] = []  # the board's texts that say failsafe, with the time
+        self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
+        self._pending_inbox: list[Message] = []  # its board messages, decoded then too (off the board's wait)
+
+    def run(self) -> LoopResult:
+        started = time.perf_counter()
+        board_cpu_s = self.board.cpu_s()
+        reason, code, internal = "completed", int(EXIT_OK), None
+        try:
+            paced = realtime_priority(self.board.realtime_pids()) if self.paced else nullcontext("")
+            with frozen_heap(), paced as note:
+                if note:
+                    self.emit(note)
+                self._fly(started)
+        except RunAborted as exc:
+            reason, code = exc.reason, exc.exit_code
+        except (BoardError, LinkError) as exc:
+            reason, code = f"board/link failure: {exc}", EXIT_BOARD
+        except PlantError as exc:
+            reason, code = f"plant diverged {self.when()}: {exc}", EXIT_EXPECT_FAILED
+        except EvaluationError as exc:  # the scenario's own expression failed mid-flight
+            reason, code = f"a scenario expression failed: {exc} (mission time)", EXIT_EXPECT_FAILED
+        except KeyboardInterrupt as exc:
+            reason, code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
+        except Exception as exc:
+            internal = traceback.format_exc()
+            reason, code = f"internal error {self.when()}: {type(exc).__name__}: {exc}", EXIT_INTERNAL
+        finally:
+            self._flush_pending()
+            self._account_time(started, board_cpu_s)
+        return LoopResult(code, reason, internal)
+
+    def when(self) -> str:
+        """The moment of the run, as a user reads it: mission time once the mission clock runs."""
+        if math.isfinite(self.mission_t):
+            return f"at mission time {self.mission_t:.2f} s"
+        return f"at bench time {self.t_us * 1e-6:.2f} s (before the mission)"
+
+    def emit(self, text: str) -> None:
+        """A run event at the bench's time, to every sink."""
+        for sink in self.sinks:
+            sink.on_event(self.t_us, text)
+
+    def _account_time(self, started: float, board_cpu_at_start_s: float | None) -> None:
+        """Wall and simulated time of the run, and the CPU its board's process used meanwhile."""
+        self.timing.wall_s = time.perf_counter() - started
+        self.timing.sim_s = self.t_us * 1e-6
+        board_cpu_s = self.board.cpu_s()
+        if board_cpu_at_start_s is not None and board_cpu_s is not None:
+            self.timing.board_cpu_s = board_cpu_s - board_cpu_at_start_s
+
+    def _fly(self, started: float) -> None:
+        next_deadline = last_progress = time.perf_counter()
+        planned: tuple[Decision, EnvironmentSample] | None = None  # decided during the last step's wait
+        while True:
+            if (stop := stop_requested()) is not None:  # its KeyboardInterrupt was lost where it landed
+                raise KeyboardInterrupt(stop)
+            self.timing.start()
+            if planned is None and (planned := self._decide()) is None:
+                return
+            planned = self._step(*planned)
+            if self.paced:
+                next_deadline = self.pacer.sleep_until(next_deadline + self.dt, self.t_us)
+            if self.progress is not None and time.perf_counter() - last_progress > 0.25:
+                last_progress = time.perf_counter()
+                self.progress(self.phase, self.t_us * 1e-6, self.pilot.progress(),
+                              self.t_us * 1e-6 / max(last_progress - started, 1e-9))
+
+    def _decide(self) -> tuple[Decision, EnvironmentSample] | None:
+        """The pilot's decision for the step from the bench's current time (its asks sent at once), and the
+        environment at its mission time; None once the flight is over."""
+        view = self.view
+        view.now_s, view.truth, view.outputs_armed = self.t_us * 1e-6, self.state, self.armed
+        decision = self.pilot.decide(view)
+        if decision is None:
+            return None
+        for ask in decision.asks:
+            self.board.commands.ask(ask)
+        self.phase, self.mission_t = decision.phase, decision.mission_t
+        environment = self.world.environment.sample(decision.mission_t if decision.flying else -1.0)
+        self.timing.lap("phase_and_environment")
+        return decision, environment
+
+    def _step(self, decided: Decision, env: EnvironmentSample) -> tuple[Decision, EnvironmentSample] | None:
+        """One step as `decided`: the plant, the sensors, the board's reply. Returns the next step's decision
+        when the board's links let it be made while the board computes (`BoardIO.decides_early`)."""
+        timing, session, world = self.timing, self.board.session, self.world
+        if not session.waits_for_replies:  # a board on its own clock: take the reply that came while we slept
+            self._take_reply(session.await_reply())
+            timing.lap("frame")
+        mission_t = decided.mission_t
+        world.plant.set_input_groups(self.motors, env.motor_health, env.wind_ned, env.force_ned, env.torque_frd,
+                                     env.payload_kg)
+        world.plant.step(self.dt)
+        self.state = state = world.plant.state()
+        self.t_us += self.dt_us
+        timing.lap("plant")
+        truth = TrueState(self.t_us, state.pos_ned, state.vel_ned, state.q_wxyz, state.rates_frd,
+                          state.specific_force_frd)
+        readings, gps = world.sensors.step(truth, mission_t if mission_t > -math.inf else None)
+        for faults in world.link_faults:
+            faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
+        sent = timing.lap("sensors")
+        self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, readings, gps, state)
+        self._flush_pending()
+        timing.lap("previous_step_messages_and_sinks")
+        early = self._decide() if self.io.decides_early else None
+        self._take_reply(session.await_reply())
+        round_trip = timing.lap("wait_for_board") - sent if session.lockstep else None
+        self._pending = StepFrame(self.t_us, mission_t, decided.phase, state, decided.reference, readings, gps,
+                                  self.motors, self.armed, env, board_offset_ned=decided.board_offset_ned,
+                                  step_wall_s=time.perf_counter() - timing.started, round_trip_s=round_trip)
+        self._pending_inbox = self.io.take_inbox()
+        self._board_texts(self._pending_inbox)
+        timing.lap("frame")
+        return early
+
+    def _take_reply(self, actuators: codec.ActuatorOutputs | None) -> None:
+        if actuators is not None:
+            self.motors, self.armed = actuators.motors, actuators.armed
+
+    def _board_texts(self, messages: list[Message]) -> None:
+        """The board's texts of this step as events, at once: the next step's decision may follow from them."""
+        for message in messages:
+            if message.get_type() == "STATUSTEXT":
+                self.emit(f"board: {message.text}")
+                if "failsafe" in message.text.lower():
+                    self.failsafe_texts.append((self.t_us * 1e-6, message.text))
+
+    def _flush_pending(self) -> None:
+        """The last step's frame, with its board messages decoded, to the sinks."""
+        frame, self._pending = self._pending, None
+        if frame is not None:
+            frame.board = [p for p in (decode_board_message(m) for m in self._pending_inbox) if p is not None]
+            self._pending_inbox = []
+            self.timing.add_step(frame.step_wall_s, frame.round_trip_s)
+            for sink in self.sinks:
+                sink.on_step(frame)
