@@ -19,6 +19,7 @@ from run_timing import benchmark_parser
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import SIMULATED, BoardSession
+from firmware_interface.board_requests import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder, message_class
@@ -77,7 +78,7 @@ def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tup
         if gps:
             session.link.send_frame(gps)
         if k == SETTLE:
-            session.arm(True, timeout_s=3.0)
+            arm(session, True, timeout_s=3.0)
         session._awaited_t_us = 4000 * (k + 1)
         start = time.perf_counter()
         session.link.send_frame(sensor)

@@ -42,7 +42,7 @@ def minimal_simulator(build: Px4Build, scratch: Path, sim_s: float) -> tuple[flo
     PX4's own CPU µs per step (measured as the bench measures its board's, `timing.board_cpu_us_per_step`)."""
     handle = Px4SitlTarget(build).attach(load_scenario(ROOT / "scenarios" / "hover.yaml"), scratch,
                                          LinkSettings(watchdog_s=2.0))
-    session = handle.session
+    session = handle.hil_session
     rng = np.random.default_rng(1)
     dt_us = 1_000_000 // RATE_HZ
     steps = int(sim_s * RATE_HZ)

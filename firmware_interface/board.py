@@ -1,8 +1,8 @@
 """A session with a flight controller board over a `Link`.
 
-Heartbeats, the handshake, sensor frames out and actuator frames in with PX4 SITL's
-lockstep bookkeeping, arming and offboard through COMMAND_LONG / COMMAND_ACK, setpoints,
-and a watchdog. The same code talks to a Pixhawk, PX4 SITL and the emulator.
+Heartbeats, the handshake, sensor frames out and actuator frames in with PX4 SITL's lockstep bookkeeping,
+commands and parameters sent without waiting (their answers land in `report`), setpoints, and a watchdog. The same
+code talks to a Pixhawk, PX4 SITL and the emulator; `board_requests` has what the bench asks and the waiting forms.
 """
 
 from __future__ import annotations
@@ -10,26 +10,21 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 from pymavlink.dialects.v20 import common
 from pymavlink.dialects.v20.common import (
     MAV_AUTOPILOT_INVALID,
-    MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
-    MAV_CMD_NAV_LAND,
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_FRAME_LOCAL_NED,
     MAV_PARAM_TYPE_REAL32,
-    MAV_RESULT_ACCEPTED,
     MAV_TYPE_GCS,
     POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
 )
 
 from firmware_interface import hil_codec as codec
-from firmware_interface.link import Link, LinkError, Message
+from firmware_interface.board_requests import BoardError, ParamSet, Request
+from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
-from firmware_interface.px4_modes import FORCE_DISARM_MAGIC, PX4_MAIN_MODE_OFFBOARD
 
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
 SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
@@ -38,27 +33,6 @@ BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
 EVENT_MSG_ID = 410  # MAVLink's EVENT (the events protocol), newer than pymavlink's dialect
 
 
-@dataclass(frozen=True)
-class Request:
-    """A COMMAND_LONG and its parameters: sent with `BoardSession.request` until `acknowledged` says."""
-
-    command: int
-    params: tuple[float, ...] = ()
-
-
-@dataclass(frozen=True)
-class ParamSet:
-    """A PARAM_SET of a float parameter: the board answers with PARAM_VALUE (`BoardState.params`)."""
-
-    name: str
-    value: float
-
-
-ARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-DISARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
-FORCE_DISARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0, float(FORCE_DISARM_MAGIC)))  # also in the air
-OFFBOARD = Request(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM), float(PX4_MAIN_MODE_OFFBOARD)))
-LAND = Request(MAV_CMD_NAV_LAND)  # PX4's AUTO_LAND where the vehicle is
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
                          "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE"})
 # What a session decodes; the board's other messages stay whole frames (for the tlog and a ground station).
@@ -83,10 +57,6 @@ SIMULATED = LinkPolicy(own_clock=False, takes_ground_truth=True)  # PX4 SITL, th
 ON_OWN_CLOCK = LinkPolicy(own_clock=True, takes_ground_truth=False)  # a Pixhawk, PX4's HITL rehearsal
 
 
-class BoardError(LinkError):
-    """The board did not answer as expected (no heartbeat, command refused, silent)."""
-
-
 @dataclass(frozen=True)
 class BoardInfo:
     system_id: int
@@ -98,7 +68,7 @@ class BoardInfo:
 
 
 @dataclass
-class BoardState:
+class BoardReport:
     """What the board last told us, for the bench's recording and summary."""
 
     info: BoardInfo | None = None
@@ -123,7 +93,7 @@ class BoardSession:
         self.free_run_wait_s = free_run_wait_s
         self.reversible_motors = reversible_motors  # PX4 outputs reversible motors as -1..1
         self.clock = clock
-        self.state = BoardState()
+        self.report = BoardReport()
         self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
         self.relay: list[bytes] | None = None  # when a list: the raw frames of every non-HIL message, for a GCS
         # True: ask the board to stop each telemetry stream it sends here that the bench does not read (only
@@ -155,7 +125,7 @@ class BoardSession:
             self.link.send("HEARTBEAT", type=MAV_TYPE_GCS, autopilot=MAV_AUTOPILOT_INVALID,
                            base_mode=0, custom_mode=0, system_status=0, mavlink_version=3)
             self._last_heartbeat_sent = now
-            if self.stop_unread_streams and self.state.info is not None:
+            if self.stop_unread_streams and self.report.info is not None:
                 self._stop_streams_seen()
 
     def _stop_streams_seen(self) -> None:
@@ -208,7 +178,7 @@ class BoardSession:
     def _handle(self, msg: Message) -> None:
         self._last_rx = self.clock()
         kind = msg.get_type()
-        info = self.state.info
+        info = self.report.info
         if info is not None and msg.get_srcSystem() != info.system_id and kind != "HEARTBEAT":
             return
         if self.relay is not None and not kind.startswith("HIL_"):
@@ -222,18 +192,18 @@ class BoardSession:
         elif kind == "HEARTBEAT":
             self._handle_heartbeat(msg)
         elif kind == "COMMAND_ACK":
-            self.state.acks[msg.command] = msg.result
+            self.report.acks[msg.command] = msg.result
         elif kind == "PARAM_VALUE":
-            self.state.params[msg.param_id] = float(msg.param_value)
+            self.report.params[msg.param_id] = float(msg.param_value)
         elif kind == "STATUSTEXT":
             text = self._statustext(msg)
             if text is None:
                 return  # more chunks to come
             msg.text = text
-            self.state.status_texts.append((msg.severity, text))
+            self.report.status_texts.append((msg.severity, text))
         if kind in INBOX_KINDS:
             self.inbox.append(msg)
-        self.state.latest[kind] = msg
+        self.report.latest[kind] = msg
 
     def _statustext(self, msg: Message) -> str | None:
         """The whole text: PX4 sends a text over 50 characters in chunks sharing one `id`, the last shorter
@@ -251,10 +221,10 @@ class BoardSession:
         if msg.autopilot == MAV_AUTOPILOT_INVALID:  # another simulator or GCS, not the board
             return
         armed = bool(msg.base_mode & codec.MODE_FLAG_ARMED)
-        self.state.info = BoardInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.autopilot, msg.type,
+        self.report.info = BoardInfo(msg.get_srcSystem(), msg.get_srcComponent(), msg.autopilot, msg.type,
                                     bool(msg.base_mode & codec.MODE_FLAG_HIL), armed)
-        self.state.armed = armed
-        self.state.custom_mode = msg.custom_mode
+        self.report.armed = armed
+        self.report.custom_mode = msg.custom_mode
         self.link.encoder.system_id = msg.get_srcSystem()  # adopt the board's system id, as jMAVSim does
 
     # --- handshake ----------------------------------------------------------------
@@ -262,7 +232,7 @@ class BoardSession:
                        still_starting: Callable[[], None] | None = None) -> BoardInfo:
         """Wait for the board's first heartbeat; `still_starting` may raise when the board's process died."""
         deadline = self.clock() + timeout_s
-        while self.state.info is None:
+        while self.report.info is None:
             if self.clock() > deadline:
                 raise BoardError(f"no heartbeat on {self.link.name} within {timeout_s:g} s ({self._what_arrived()})"
                                  f" — {hint}")
@@ -271,7 +241,7 @@ class BoardSession:
             self.service()
             self.poll(0.05)
         self._last_rx = self.clock()
-        return self.state.info
+        return self.report.info
 
     def _what_arrived(self) -> str:
         """What the line carried while we waited: nothing at all, bytes but no frame (a wrong baud rate
@@ -361,42 +331,22 @@ class BoardSession:
 
     # --- commands -----------------------------------------------------------------
     def _target(self) -> tuple[int, int]:
-        info = self.state.info
+        info = self.report.info
         return (info.system_id, info.component_id) if info else (1, 1)
 
-    def command(self, command: int, params: tuple[float, ...], timeout_s: float = 3.0,
-                pump: Callable[[], Any] | None = None) -> int:
-        """COMMAND_LONG, waiting for its COMMAND_ACK; returns MAV_RESULT. `pump` keeps a
-        lockstep simulation stepping while we wait (PX4 SITL's clock only moves with sensors)."""
-        deadline = self.clock() + timeout_s
-        last_sent = -1e9
-        self.state.acks.pop(command, None)
-        while command not in self.state.acks:
-            now = self.clock()
-            if now > deadline:
-                raise BoardError(f"no COMMAND_ACK for command {command} within {timeout_s:g} s")
-            if now - last_sent > 0.5:
-                self.request(command, params)
-                last_sent = now
-            if pump is not None:
-                pump()
-            self.service()
-            self.poll(0.0 if pump is not None else 0.02)
-        return self.state.acks[command]
-
     def request(self, command: int, params: tuple[float, ...] = ()) -> None:
-        """Send a COMMAND_LONG without waiting; `acknowledged(command)` tells the result when it comes."""
+        """Send a COMMAND_LONG without waiting; its COMMAND_ACK lands in `report.acks` when it comes."""
         system, component = self._target()
         p = tuple(params) + (0.0,) * (7 - len(params))
-        self.state.acks.pop(command, None)
+        self.report.acks.pop(command, None)
         self.link.send("COMMAND_LONG", target_system=system, target_component=component, command=command,
                        confirmation=0, param1=p[0], param2=p[1], param3=p[2], param4=p[3], param5=p[4],
                        param6=p[5], param7=p[6])
 
     def set_param(self, name: str, value: float) -> None:
-        """PARAM_SET of a float parameter without waiting; PX4 answers with PARAM_VALUE (see `state.params`)."""
+        """PARAM_SET of a float parameter without waiting; PX4 answers with PARAM_VALUE (see `report.params`)."""
         system, component = self._target()
-        self.state.params.pop(name, None)
+        self.report.params.pop(name, None)
         self.link.send("PARAM_SET", target_system=system, target_component=component, param_id=name,
                        param_value=float(value), param_type=MAV_PARAM_TYPE_REAL32)
 
@@ -406,22 +356,6 @@ class BoardSession:
             self.set_param(ask.name, ask.value)
         else:
             self.request(ask.command, ask.params)
-
-    def acknowledged(self, command: int) -> int | None:
-        return self.state.acks.get(command)
-
-    def arm(self, arm: bool = True, **kwargs: Any) -> None:
-        request = ARM if arm else DISARM
-        result = self.command(request.command, request.params, **kwargs)
-        if result != MAV_RESULT_ACCEPTED:
-            texts = "; ".join(t for _, t in self.state.status_texts[-3:])
-            said = f": {texts}" if texts else ""
-            raise BoardError(f"{'arming' if arm else 'disarming'} refused (MAV_RESULT {result}){said}")
-
-    def set_offboard(self, **kwargs: Any) -> None:
-        result = self.command(OFFBOARD.command, OFFBOARD.params, **kwargs)
-        if result != MAV_RESULT_ACCEPTED:
-            raise BoardError(f"offboard mode refused (MAV_RESULT {result})")
 
     def send_setpoint(self, t_boot_ms: int, pos_ned: codec.Vec3, vel_ned: codec.Vec3, acc_ned: codec.Vec3,
                       yaw_rad: float) -> None:

@@ -6,6 +6,7 @@ import pytest
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import ON_OWN_CLOCK, SIMULATED, BoardError, BoardSession
+from firmware_interface.board_requests import arm, set_offboard
 from tests.support.scripted_board import ScriptedBoard
 
 READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
@@ -56,18 +57,18 @@ def test_lockstep_free_runs_then_one_sensor_step_per_actuator_message(board):
 def test_arm_is_acknowledged_and_a_refusal_is_an_error(board):
     session = BoardSession(board.start(), SIMULATED)
     session.wait_heartbeat(2.0)
-    session.arm(True, timeout_s=2.0)
+    arm(session, True, timeout_s=2.0)
     assert board.armed
     board.accept_arm = False
     with pytest.raises(BoardError, match=r"arming refused \(MAV_RESULT 4\)"):
-        session.arm(True, timeout_s=2.0)
+        arm(session, True, timeout_s=2.0)
 
 
 def test_setpoints_and_offboard_reach_the_board(board):
     session = BoardSession(board.start(), SIMULATED)
     session.wait_heartbeat(2.0)
     session.send_setpoint(100, (1.0, 2.0, -3.0), (0.1, -0.2, 0.3), (0.0, 0.5, 0.0), 0.5)
-    session.set_offboard(timeout_s=2.0)
+    set_offboard(session, timeout_s=2.0)
     target = board.messages["SET_POSITION_TARGET_LOCAL_NED"]
     # MAVLink common.xml: MAV_FRAME_LOCAL_NED = 1; POSITION_TARGET_TYPEMASK bit 11 (2048) ignores the yaw
     # rate, every other field (position, velocity, acceleration, yaw) is used

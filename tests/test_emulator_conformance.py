@@ -12,6 +12,7 @@ import pytest
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import SIMULATED, BoardError, BoardSession
+from firmware_interface.board_requests import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
@@ -61,10 +62,10 @@ def test_heartbeat_arming_lockstep_and_failsafe(emulator):
     assert all(o is not None and o.motors == (0.0, 0.0, 0.0, 0.0) and not o.armed for o in outputs[5:])
 
     with pytest.raises(BoardError, match=r"arming refused \(MAV_RESULT 2\): Arming denied: estimator not settled"):
-        session.arm(True, timeout_s=2.0, pump=lambda: vehicle.step(session))
+        arm(session, True, timeout_s=2.0, pump=lambda: vehicle.step(session))
     for _ in range(int(2.5 * 250)):  # the estimator settles on 2 s of good data
         vehicle.step(session)
-    session.arm(True, timeout_s=2.0, pump=lambda: vehicle.step(session))
+    arm(session, True, timeout_s=2.0, pump=lambda: vehicle.step(session))
 
     counts_before = session.link.counters["frames_in"]
     sent = 200
@@ -78,9 +79,9 @@ def test_heartbeat_arming_lockstep_and_failsafe(emulator):
 
     time.sleep(0.8)  # no HIL_SENSOR for > 0.5 s while armed
     deadline = time.monotonic() + 3.0
-    while time.monotonic() < deadline and not any("Failsafe" in t for _, t in session.state.status_texts):
+    while time.monotonic() < deadline and not any("Failsafe" in t for _, t in session.report.status_texts):
         session.poll(0.1)
-    assert any("Failsafe: no HIL_SENSOR" in t for _, t in session.state.status_texts)
+    assert any("Failsafe: no HIL_SENSOR" in t for _, t in session.report.status_texts)
     out = vehicle.step(session)
     assert out is not None and not out.armed and out.motors == (0.0, 0.0, 0.0, 0.0)
 

@@ -15,7 +15,7 @@ from pymavlink.dialects.v20 import common
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.emulator.config import build_config
-from hil.reports.figures import state_index
+from hil.reports.plotting import state_index
 from hil.reports.rundata import load_flight
 from hil.scenario.loader import load_scenario
 from tests.support.closed_loop import PAPER_PLANT, fly, helix, scenario_inputs

@@ -20,8 +20,8 @@ import pytest
 import yaml
 from mcap.writer import CompressionType, Writer
 
-from hil.reports.figures import thin
 from hil.reports.html import write_report
+from hil.reports.plotting import thin
 from hil.reports.rundata import NoFlightData, disturbance_ned, load_flight, read_channels
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end

@@ -25,8 +25,8 @@ class BoardProcess(Protocol):
 
 @dataclass
 class BoardHandle:
-    session: BoardSession  # the HIL link: sensors out, actuators in
-    commands: BoardSession  # heartbeat, commands, setpoints: the same session unless the board has its own link
+    hil_session: BoardSession  # the HIL link: sensors out, actuators in
+    command_session: BoardSession  # heartbeat, commands, setpoints: the HIL session unless the board has its own
     description: str
     process: BoardProcess | None = None
     params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
@@ -35,12 +35,12 @@ class BoardHandle:
     @property
     def own_command_link(self) -> bool:
         """PX4 SITL's commands come on a UDP link its own thread serves, apart from the lockstep HIL link."""
-        return self.commands is not self.session
+        return self.command_session is not self.hil_session
 
     @property
     def sessions(self) -> list[BoardSession]:
         """Each link to the board once: the HIL link, and the command link when it is a separate one."""
-        return [self.session, self.commands] if self.own_command_link else [self.session]
+        return [self.hil_session, self.command_session] if self.own_command_link else [self.hil_session]
 
     def relay_to(self, gcs: GcsBridge) -> None:
         self.gcs = gcs

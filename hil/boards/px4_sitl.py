@@ -61,8 +61,8 @@ class Px4SitlTarget:
                              f"{SITL_OFFBOARD_PORT + n}, QGroundControl: udp {SITL_GCS_PORT}",
                              process=px4, params=px4_parameters(scenario))
         try:
-            handle.commands = BoardSession(open_link(f"udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}", tap=settings.tap),
-                                           SIMULATED, watchdog_s=settings.watchdog_s)
+            commands = open_link(f"udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}", tap=settings.tap)
+            handle.command_session = BoardSession(commands, SIMULATED, watchdog_s=settings.watchdog_s)
             session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"PX4 did not connect; see {px4.log_path}",
                                    still_starting=px4.check_starting)
         except BaseException:

@@ -40,7 +40,7 @@ class SitlPortTarget:
                                                                          if self.mavlink else ""))
         try:
             if self.mavlink:
-                handle.commands = BoardSession(open_link(self.mavlink, tap=settings.tap), SIMULATED,
+                handle.command_session = BoardSession(open_link(self.mavlink, tap=settings.tap), SIMULATED,
                                                watchdog_s=settings.watchdog_s)
             session.wait_heartbeat(self.connect_timeout_s or MANUAL_SITL_WAIT_S, hint=SITL_HINT)
         except BaseException:

@@ -19,7 +19,7 @@ GroundTruthUse = Literal["none", "for_log", "to_fly"]
 @dataclass(frozen=True)
 class BoardPolicy:
     kind: str  # meta.json's board_kind: emulator, px4_sitl, px4_hitl, attached
-    flight_code: str  # what flies on it, for the summary: the emulator's controller, or PX4's own
+    autopilot: str  # what flies on it, for the summary: the emulator's controller, or PX4's own
     wall_clock: bool  # the board keeps its own time: the run is paced on the wall clock, replies never awaited
     ground_truth: GroundTruthUse
     px4: bool  # PX4's own flight code flies (the expectations meant for PX4 apply)

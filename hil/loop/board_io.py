@@ -31,34 +31,34 @@ class BoardIO:
         self.timing = timing
 
     def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                  readings: codec.SensorReadings, gps: codec.GpsFix | None, state: PlantState) -> None:
+                  readings: codec.SensorReadings, gps: codec.GpsFix | None, truth: PlantState) -> None:
         """This step's frame out first, in one write; then what may overlap the board's computation."""
-        session = self.board.session
+        session = self.board.hil_session
         session.link.begin_batch()
         if reference is not None and self.setpoint_in_frame:
             self._send_setpoint(t_us, reference, offset_ned)
-        session.send_step(readings, gps, self._local_truth(t_us, state) if self.truth_use == "to_fly" else None)
+        session.send_step(readings, gps, self._local_truth(t_us, truth) if self.truth_use == "to_fly" else None)
         session.link.flush()
         self.timing.lap("encode_and_send")
-        self._after_frame(t_us, reference, offset_ned, state)
+        self._after_frame(t_us, reference, offset_ned, truth)
         if self.board.gcs is not None:
             self._relay_gcs()
         self.timing.lap("command_link_and_relay")
 
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                     state: PlantState) -> None:
+                     truth: PlantState) -> None:
         if self.truth_use == "for_log":
-            self.board.session.send_ground_truth_ahead(self._ground_truth(t_us, state))
+            self.board.hil_session.send_ground_truth_ahead(self._ground_truth(t_us, truth))
 
     def take_inbox(self) -> list[Message]:
         """This step's messages from every link to the board, taken as they came (decoded later)."""
-        return self.board.session.take_inbox()
+        return self.board.hil_session.take_inbox()
 
     def _send_setpoint(self, t_us: int, reference: RefSample, offset_ned: np.ndarray | None) -> None:
         """The reference in the board's own local frame (`offset_ned`, from arming on)."""
         offset = offset_ned if offset_ned is not None else 0.0
-        self.board.commands.send_setpoint(t_us // 1000, tuple(reference.pos_ned + offset), tuple(reference.vel_ned),
-                                          tuple(reference.acc_ned), reference.yaw)
+        self.board.command_session.send_setpoint(t_us // 1000, tuple(reference.pos_ned + offset),
+                                                 tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
 
     def _relay_gcs(self) -> None:
         """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames."""
@@ -69,21 +69,21 @@ class BoardIO:
             if frames:
                 gcs.to_gcs(frames)
         for frame in gcs.from_gcs():
-            board.commands.link.send_frame(frame)
+            board.command_session.link.send_frame(frame)
 
     @staticmethod
-    def _local_truth(t_us: int, state: PlantState) -> codec.LocalTruth:
+    def _local_truth(t_us: int, truth: PlantState) -> codec.LocalTruth:
         """The true state for the emulator's exact-state path (ODOMETRY, float precision)."""
-        return codec.LocalTruth(t_us, tuple(state.pos_ned.tolist()), tuple(state.vel_ned.tolist()),
-                                tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()))
+        return codec.LocalTruth(t_us, tuple(truth.pos_ned.tolist()), tuple(truth.vel_ned.tolist()),
+                                tuple(truth.q_wxyz.tolist()), tuple(truth.rates_frd.tolist()))
 
-    def _ground_truth(self, t_us: int, state: PlantState) -> codec.GroundTruth:
+    def _ground_truth(self, t_us: int, truth: PlantState) -> codec.GroundTruth:
         """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log."""
-        pos = state.pos_ned
+        pos = truth.pos_ned
         lat, lon, alt = self.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
-        vel = state.vel_ned
-        return codec.GroundTruth(t_us, tuple(state.q_wxyz.tolist()), tuple(state.rates_frd.tolist()),
-                                 lat, lon, alt, tuple(vel.tolist()), tuple(state.specific_force_frd.tolist()),
+        vel = truth.vel_ned
+        return codec.GroundTruth(t_us, tuple(truth.q_wxyz.tolist()), tuple(truth.rates_frd.tolist()),
+                                 lat, lon, alt, tuple(vel.tolist()), tuple(truth.specific_force_frd.tolist()),
                                  float(np.linalg.norm(vel - self.steady_wind_ned)))
 
 
@@ -96,16 +96,16 @@ class SplitBoardIO(BoardIO):
     setpoint_in_frame = False
 
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                     state: PlantState) -> None:
-        super()._after_frame(t_us, reference, offset_ned, state)
-        commands = self.board.commands
+                     truth: PlantState) -> None:
+        super()._after_frame(t_us, reference, offset_ned, truth)
+        commands = self.board.command_session
         if reference is not None:
             self._send_setpoint(t_us, reference, offset_ned)
         commands.poll(0.0)
-        commands.service(t_us * 1e-6 if self.board.session.lockstep else None)
+        commands.service(t_us * 1e-6 if self.board.hil_session.lockstep else None)
 
     def take_inbox(self) -> list[Message]:
-        return self.board.session.take_inbox() + self.board.commands.take_inbox()
+        return self.board.hil_session.take_inbox() + self.board.command_session.take_inbox()
 
 
 def board_io(board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,

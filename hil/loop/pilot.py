@@ -9,7 +9,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from firmware_interface.board import BoardState, ParamSet, Request
+from firmware_interface.board import BoardReport
+from firmware_interface.board_requests import ParamSet, Request
 from hil.scenario.reference import RefSample
 from plant_fmu.state import PlantState
 
@@ -32,7 +33,7 @@ class Decision:
 class PilotView:
     """What a pilot sees, refreshed by the loop before each decision."""
 
-    board: BoardState  # heartbeat, ACKs, the latest of each message, texts, parameters read back
+    board: BoardReport  # heartbeat, ACKs, the latest of each message, texts, parameters read back
     command_link: str  # the board's command link, for messages
     emit: Callable[[str], None]  # a run event, stamped with the bench's time
     params_owed: dict[str, float] = field(default_factory=dict)  # what the board must be told before arming

@@ -69,11 +69,11 @@ class Stepper:
         self.timing = LoopTiming()
         self.io = board_io(board, truth_use, world.local_frame, world.environment.steady, self.timing)
         self.pacer = Pacer(self.dt, self.timing)
-        self.view = PilotView(board.commands.state, board.commands.link.name, self.emit, board.params)
+        self.view = PilotView(board.command_session.report, board.command_session.link.name, self.emit, board.params)
         self.t_us = 0
         self.phase = ""  # the latest decision's phase and mission clock (for the progress line and messages)
         self.mission_t = -math.inf
-        self.state = world.plant.state()  # the true state after the latest step
+        self.truth = world.plant.state()  # the true state after the latest step
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.armed = False
         self.failsafe_texts: list[tuple[float, str]] = []  # the board's texts that say failsafe, with the time
@@ -89,7 +89,7 @@ class Stepper:
             with frozen_heap(), paced as note:
                 if note:
                     self.emit(note)
-                self._fly(started)
+                self._loop(started)
         except RunAborted as exc:
             reason, code = exc.reason, exc.exit_code
         except (BoardError, LinkError) as exc:
@@ -127,7 +127,7 @@ class Stepper:
         if board_cpu_at_start_s is not None and board_cpu_s is not None:
             self.timing.board_cpu_s = board_cpu_s - board_cpu_at_start_s
 
-    def _fly(self, started: float) -> None:
+    def _loop(self, started: float) -> None:
         next_deadline = last_progress = time.perf_counter()
         planned: tuple[Decision, EnvironmentSample] | None = None  # decided during the last step's wait
         while True:
@@ -148,12 +148,12 @@ class Stepper:
         """The pilot's decision for the step from the bench's current time (its asks sent at once), and the
         environment at its mission time; None once the flight is over."""
         view = self.view
-        view.now_s, view.truth, view.outputs_armed = self.t_us * 1e-6, self.state, self.armed
+        view.now_s, view.truth, view.outputs_armed = self.t_us * 1e-6, self.truth, self.armed
         decision = self.pilot.decide(view)
         if decision is None:
             return None
         for ask in decision.asks:
-            self.board.commands.ask(ask)
+            self.board.command_session.ask(ask)
         self.phase, self.mission_t = decision.phase, decision.mission_t
         environment = self.world.environment.sample(decision.mission_t if decision.flying else -1.0)
         self.timing.lap("phase_and_environment")
@@ -162,7 +162,7 @@ class Stepper:
     def _step(self, decided: Decision, env: EnvironmentSample) -> tuple[Decision, EnvironmentSample] | None:
         """One step as `decided`: the plant, the sensors, the board's reply. Returns the next step's decision
         when the board's links let it be made while the board computes (`BoardIO.decides_early`)."""
-        timing, session, world = self.timing, self.board.session, self.world
+        timing, session, world = self.timing, self.board.hil_session, self.world
         if not session.waits_for_replies:  # a board on its own clock: take the reply that came while we slept
             self._take_reply(session.await_reply())
             timing.lap("frame")
@@ -170,22 +170,22 @@ class Stepper:
         world.plant.set_input_groups(self.motors, env.motor_health, env.wind_ned, env.force_ned, env.torque_frd,
                                      env.payload_kg)
         world.plant.step(self.dt)
-        self.state = state = world.plant.state()
+        self.truth = truth = world.plant.state()
         self.t_us += self.dt_us
         timing.lap("plant")
-        truth = TrueState(self.t_us, state.pos_ned, state.vel_ned, state.q_wxyz, state.rates_frd,
-                          state.specific_force_frd)
-        readings, gps = world.sensors.step(truth, mission_t if mission_t > -math.inf else None)
+        readings, gps = world.sensors.step(TrueState(self.t_us, truth.pos_ned, truth.vel_ned, truth.q_wxyz,
+                                                     truth.rates_frd, truth.specific_force_frd),
+                                           mission_t if mission_t > -math.inf else None)
         for faults in world.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = timing.lap("sensors")
-        self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, readings, gps, state)
+        self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, readings, gps, truth)
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")
         early = self._decide() if self.io.decides_early else None
         self._take_reply(session.await_reply())
         round_trip = timing.lap("wait_for_board") - sent if session.lockstep else None
-        self._pending = StepFrame(self.t_us, mission_t, decided.phase, state, decided.reference, readings, gps,
+        self._pending = StepFrame(self.t_us, mission_t, decided.phase, truth, decided.reference, readings, gps,
                                   self.motors, self.armed, env, board_offset_ned=decided.board_offset_ned,
                                   step_wall_s=time.perf_counter() - timing.started, round_trip_s=round_trip)
         self._pending_inbox = self.io.take_inbox()

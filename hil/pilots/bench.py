@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from pymavlink.dialects.v20.common import MAV_LANDED_STATE_ON_GROUND, MAV_RESULT_ACCEPTED
 
-from firmware_interface.board import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, ParamSet, Request
+from firmware_interface.board_requests import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, ParamSet, Request
 from hil.exit_codes import EXIT_BOARD, EXIT_EXPECT_FAILED
 from hil.judge.flight_judge import FlightFailed, FlightJudge
 from hil.loop.pilot import Ask, Decision, PilotView, RunAborted

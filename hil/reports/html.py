@@ -21,7 +21,8 @@ from matplotlib.colors import to_hex
 
 from hil.exit_codes import verdict
 from hil.judge.metrics import slip_note
-from hil.reports.figures import PAYLOAD_COLOUR, SPAN_STYLE, Bounds, render
+from hil.reports.figures import render
+from hil.reports.plotting import PAYLOAD_COLOUR, SPAN_STYLE, Bounds
 from hil.reports.rundata import Flight, NoFlightData, load_flight
 
 __all__ = ["NoFlightData", "write_report"]

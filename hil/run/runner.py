@@ -62,10 +62,10 @@ class RunOutcome:
 
 
 @dataclass
-class _RunState:
+class _RunReport:
     """What the run has reached, for the summary whatever ends it."""
 
-    flight_code: str
+    autopilot: str
     reason: str = "not started"
     code: int = EXIT_BOARD
     metrics: dict[str, Any] = field(default_factory=dict)
@@ -84,69 +84,95 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
         return _run(scenario, options, sinks or [], progress)
 
 
+@dataclass
+class _Run:
+    """One run's fixed parts: what flies, how it is paced, where it writes."""
+
+    scenario: Scenario
+    options: RunOptions
+    policy: BoardPolicy
+    paced: bool
+    run_dir: Path
+    report: _RunReport
+
+    @classmethod
+    def prepare(cls, scenario: Scenario, options: RunOptions) -> _Run:
+        policy = options.board.policy(scenario)
+        paced = options.realtime or policy.wall_clock or bool(scenario.faults.link)
+        return cls(scenario, options, policy, paced, make_run_dir(options.runs_root, scenario.name),
+                   _RunReport(policy.autopilot))
+
+    @property
+    def meta(self) -> dict[str, Any]:
+        scenario = self.scenario
+        return {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
+                "board": self.options.board.label, "board_kind": self.policy.kind,
+                "pacing": "realtime" if self.paced else "lockstep"}
+
+    def output_context(self) -> OutputContext:
+        report = self.report
+        return OutputContext(self.run_dir, self.scenario, self.meta, time.time_ns(), self.paced,
+                             {**self.scenario.telemetry.rates_hz, **self.options.telemetry_rates_hz},
+                             lambda: report.handle.hil_session.link.counters if report.handle else {},
+                             self.options.telemetry, self.options.foxglove)
+
+    def attach_and_fly(self, sinks: list[Sink], progress: Progress | None, stack: ExitStack, tlog: TlogWriter) -> None:
+        """Attach, fly, judge; fills `report`. What it opens is closed by `stack`."""
+        scenario, report = self.scenario, self.report
+        plan = MissionPlan.build(scenario)
+        parameters = vehicle_parameters(scenario, plan)
+        settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(parameters))
+        try:
+            report.handle = handle = self.options.board.attach(scenario, self.run_dir, settings)
+        except (BoardError, LinkError) as exc:
+            report.reason, report.code = f"board/link failure: {exc}", EXIT_BOARD
+            return
+        stack.callback(handle.close)  # before the outputs close: the board is stopped first
+        report.board_text = handle.description + _relay(handle, self.policy, self.options.gcs)
+        world = build_world(scenario, handle, parameters)
+        stack.callback(world.plant.close)
+        metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
+        pilot = make_pilot(scenario, plan, step_us(scenario))
+        stepper = Stepper(world, handle, pilot, [metrics, *sinks], step_us(scenario), self.paced,
+                          self.policy.ground_truth, progress)
+        result = stepper.run()
+        report.reason, report.code, report.internal_error = result.reason, result.exit_code, result.internal_error
+        report.final_t_us = stepper.t_us
+        report.metrics = {**metrics.compute(), "timing": stepper.timing.figures(self.paced),
+                          "link": handle.hil_session.link.counters, **pilot.summary(),
+                          **_link_figures(stepper, handle)}
+        if report.code == EXIT_BOARD and (note := handle.exit_note()):
+            report.reason = f"{report.reason}; {note}"
+        if report.code == EXIT_OK:
+            expect = scenario.expect.for_board(self.policy.px4) if scenario.expect else None
+            report.failures = check_expectations(expect, report.metrics)
+            report.code = EXIT_EXPECT_FAILED if report.failures else EXIT_OK
+
+
 def _run(scenario: Scenario, options: RunOptions, extra_sinks: list[Sink], progress: Progress | None) -> RunOutcome:
-    policy = options.board.policy(scenario)
-    paced = options.realtime or policy.wall_clock or bool(scenario.faults.link)
-    run_dir = make_run_dir(options.runs_root, scenario.name)
-    meta = {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
-            "board": options.board.label, "board_kind": policy.kind,
-            "pacing": "realtime" if paced else "lockstep"}
-    state = _RunState(policy.flight_code)
+    run = _Run.prepare(scenario, options)
+    report = run.report
     sinks: list[Sink] = []
     with ExitStack() as stack:
-        tlog = TlogWriter(run_dir / "link.tlog")
-        stack.callback(lambda: _close(scenario, run_dir, sinks, state))
+        tlog = TlogWriter(run.run_dir / "link.tlog")
+        stack.callback(lambda: _close(scenario, run.run_dir, sinks, report))
         stack.callback(tlog.close)
         try:
-            context = OutputContext(run_dir, scenario, meta, time.time_ns(), paced,
-                                    {**scenario.telemetry.rates_hz, **options.telemetry_rates_hz},
-                                    lambda: state.handle.session.link.counters if state.handle else {},
-                                    options.telemetry, options.foxglove)
+            context = run.output_context()
             sinks += [sink for open_output in OUTPUTS if (sink := open_output(context)) is not None]
-            _fly(scenario, options, policy, paced, run_dir, [*sinks, *extra_sinks], progress, state, stack, tlog)
+            run.attach_and_fly([*sinks, *extra_sinks], progress, stack, tlog)
         except OutputError as exc:
-            state.reason, state.code = str(exc), EXIT_BAD_INPUT
+            report.reason, report.code = str(exc), EXIT_BAD_INPUT
         except KeyboardInterrupt as exc:
-            state.reason, state.code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
+            report.reason, report.code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
         except Exception as exc:
-            state.internal_error = traceback.format_exc()
-            state.reason, state.code = f"internal error: {type(exc).__name__}: {exc}", EXIT_INTERNAL
-    never_connected = state.handle is None and state.code in (EXIT_BOARD, EXIT_BAD_INPUT, EXIT_INTERRUPTED)
+            report.internal_error = traceback.format_exc()
+            report.reason, report.code = f"internal error: {type(exc).__name__}: {exc}", EXIT_INTERNAL
+    never_connected = report.handle is None and report.code in (EXIT_BOARD, EXIT_BAD_INPUT, EXIT_INTERRUPTED)
     if never_connected and not options.keep_failed:  # nothing flew: no directory to clutter runs/
-        shutil.rmtree(run_dir, ignore_errors=True)
-    return RunOutcome(state.code, state.reason, run_dir, state.metrics, state.failures, state.summary,
+        shutil.rmtree(run.run_dir, ignore_errors=True)
+    return RunOutcome(report.code, report.reason, run.run_dir, report.metrics, report.failures, report.summary,
                       kept=not never_connected or options.keep_failed)
-
-
-def _fly(scenario: Scenario, options: RunOptions, policy: BoardPolicy, paced: bool, run_dir: Path, sinks: list[Sink],
-         progress: Progress | None, state: _RunState, stack: ExitStack, tlog: TlogWriter) -> None:
-    """Attach, fly, judge; fills `state`."""
-    plan = MissionPlan.build(scenario)
-    parameters = vehicle_parameters(scenario, plan)
-    settings = LinkSettings(options.watchdog_s, tlog, reversible_rotors(parameters))
-    try:
-        state.handle = handle = options.board.attach(scenario, run_dir, settings)
-    except (BoardError, LinkError) as exc:
-        state.reason, state.code = f"board/link failure: {exc}", EXIT_BOARD
-        return
-    stack.callback(handle.close)  # before the outputs close: the board is stopped first
-    state.board_text = handle.description + _relay(handle, policy, options.gcs)
-    world = build_world(scenario, handle, parameters)
-    stack.callback(world.plant.close)
-    metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
-    pilot = make_pilot(scenario, plan, step_us(scenario))
-    stepper = Stepper(world, handle, pilot, [metrics, *sinks], step_us(scenario), paced, policy.ground_truth, progress)
-    result = stepper.run()
-    state.reason, state.code, state.internal_error = result.reason, result.exit_code, result.internal_error
-    state.final_t_us = stepper.t_us
-    state.metrics = {**metrics.compute(), "timing": stepper.timing.figures(paced),
-                     "link": handle.session.link.counters, **pilot.summary(), **_link_figures(stepper, handle)}
-    if state.code == EXIT_BOARD and (note := handle.exit_note()):
-        state.reason = f"{state.reason}; {note}"
-    if state.code == EXIT_OK:
-        state.failures = check_expectations(scenario.expect.for_board(policy.px4) if scenario.expect else None,
-                                            state.metrics)
-        state.code = EXIT_EXPECT_FAILED if state.failures else EXIT_OK
 
 
 def _relay(handle: BoardHandle, policy: BoardPolicy, endpoints: list[str] | None) -> str:
@@ -156,7 +182,7 @@ def _relay(handle: BoardHandle, policy: BoardPolicy, endpoints: list[str] | None
     if chosen:
         handle.relay_to(GcsBridge(chosen))
         return f"; ground station relay to {', '.join(chosen)}"
-    handle.commands.stop_unread_streams = policy.stops_unread_streams
+    handle.command_session.stop_unread_streams = policy.stops_unread_streams
     return ""
 
 
@@ -172,19 +198,19 @@ def _link_figures(stepper: Stepper, handle: BoardHandle) -> dict[str, Any]:
                                                                           for t, text in stepper.failsafe_texts]}
     if handle.gcs is not None:
         figures["gcs"] = handle.gcs.counters()
-    if handle.commands.streams_stopped:
-        figures["board_streams_stopped"] = [message_name(i) for i in handle.commands.streams_stopped]
+    if handle.command_session.streams_stopped:
+        figures["board_streams_stopped"] = [message_name(i) for i in handle.command_session.streams_stopped]
     return figures
 
 
-def _close(scenario: Scenario, run_dir: Path, sinks: list[Sink], state: _RunState) -> None:
+def _close(scenario: Scenario, run_dir: Path, sinks: list[Sink], report: _RunReport) -> None:
     """The summary and metrics say how the run ended; every sink closes with them, in the order they opened."""
-    if state.internal_error is not None:
-        (run_dir / "bench.log").write_text(state.internal_error)
-        state.reason += f" (a bench bug: traceback in {run_dir / 'bench.log'})"
-    state.summary = format_summary(scenario, state.board_text, state.flight_code, state.reason, state.code,
-                                   state.metrics, state.failures)
-    outcome = Outcome(state.final_t_us, {"exit_code": state.code, "reason": state.reason,
-                                         "expectations_failed": state.failures, **state.metrics}, state.summary)
+    if report.internal_error is not None:
+        (run_dir / "bench.log").write_text(report.internal_error)
+        report.reason += f" (a bench bug: traceback in {run_dir / 'bench.log'})"
+    report.summary = format_summary(scenario, report.board_text, report.autopilot, report.reason, report.code,
+                                   report.metrics, report.failures)
+    outcome = Outcome(report.final_t_us, {"exit_code": report.code, "reason": report.reason,
+                                         "expectations_failed": report.failures, **report.metrics}, report.summary)
     for sink in sinks:
         sink.close(outcome)

@@ -1,0 +1,95 @@
+"""Every registered board kind, through the registry as a user names it: its policy holds together, and a badly named
+board is one line. The emulator kind attaches and leaves nothing behind."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from firmware_interface.link import parse_connection
+from hil.boards.registry import KINDS, BoardOptions, BoardSpecError, board_target
+from hil.boards.target import LinkSettings
+from hil.scenario.loader import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+KNOWN_KINDS = {"emulator", "px4_sitl", "px4_hitl", "attached"}
+
+
+@pytest.fixture
+def fake_px4_build(tmp_path) -> Path:
+    """What a PX4 build looks like from outside (bin/px4, etc/init.d-posix/rcS): enough to name one."""
+    (tmp_path / "bin").mkdir()
+    (tmp_path / "bin" / "px4").write_text("#!/bin/sh\n")
+    os.chmod(tmp_path / "bin" / "px4", 0o755)
+    (tmp_path / "etc" / "init.d-posix").mkdir(parents=True)
+    (tmp_path / "etc" / "init.d-posix" / "rcS").write_text("")
+    return tmp_path
+
+
+def example_specs(build: Path) -> dict[str, list[str]]:
+    return {"emulator": ["emulator"], "px4": [f"px4:{build}"], "px4-hitl": [f"px4-hitl:{build}"],
+            "port": ["port:/dev/ttyACM0", "port:tcpin:127.0.0.1:4560"]}
+
+
+def test_every_registered_kind_has_an_example_here(fake_px4_build):
+    assert set(example_specs(fake_px4_build)) == set(KINDS)
+
+
+def test_each_kind_has_a_policy_that_holds_together(fake_px4_build):
+    scenario = load_scenario(ROOT / "scenarios" / "hover.yaml")
+    for specs in example_specs(fake_px4_build).values():
+        for spec in specs:
+            target = board_target(spec)
+            policy = target.policy(scenario)
+            assert target.label and policy.autopilot and policy.kind in KNOWN_KINDS, spec
+            if policy.wall_clock:  # a board on its own clock is a real board's path: its EKF never gets the truth
+                assert policy.ground_truth == "none", spec
+            assert policy.px4 == (policy.kind != "emulator"), spec
+            if policy.px4:  # PX4 streams ~400 messages a second on a link nobody else reads
+                assert policy.stops_unread_streams, spec
+            for endpoint in policy.default_gcs:
+                parse_connection(endpoint)
+
+
+def test_a_port_is_a_pixhawk_when_serial_and_a_px4_sitl_started_by_hand_otherwise():
+    scenario = load_scenario(ROOT / "scenarios" / "hover.yaml")
+    serial = board_target("port:/dev/ttyACM0", BoardOptions(baud=57600)).policy(scenario)
+    sitl = board_target("port:tcpin:127.0.0.1:4560", BoardOptions(mavlink="udpout:127.0.0.1:14580")).policy(scenario)
+    assert (serial.wall_clock, serial.ground_truth) == (True, "none")
+    assert (sitl.wall_clock, sitl.ground_truth) == (False, "for_log")
+
+
+def test_the_emulator_flies_on_the_truth_only_when_the_scenario_says_so():
+    hover = load_scenario(ROOT / "scenarios" / "hover.yaml")
+    helix = load_scenario(ROOT / "scenarios" / "paper_helix.yaml")  # state_source: truth (the paper's §4)
+    assert board_target("emulator").policy(hover).ground_truth == "none"
+    assert helix.board.state_source == "truth"
+    assert board_target("emulator").policy(helix).ground_truth == "to_fly"
+
+
+@pytest.mark.parametrize(("spec", "options", "said"), [
+    ("jmavsim", BoardOptions(), "unknown board kind 'jmavsim' (expected emulator, px4:..., px4-hitl:..., port:...)"),
+    ("emulator:fast", BoardOptions(), "the emulator takes no argument"),
+    ("px4:/no/such/dir", BoardOptions(named_by="--px4"), "--px4 /no/such/dir: no such directory"),
+    ("port:bogus", BoardOptions(named_by="--port"), "--port bogus: unsupported connection"),
+    ("port:tcpin:127.0.0.1:4560", BoardOptions(mavlink="udpout:nowhere"), "--mavlink udpout:nowhere:"),
+])
+def test_a_board_named_wrongly_is_one_line_naming_what_is_wrong(spec, options, said):
+    with pytest.raises(BoardSpecError) as caught:
+        board_target(spec, options)
+    message = str(caught.value)
+    assert said in message and "\n" not in message
+
+
+@pytest.mark.slow
+def test_the_emulator_attaches_speaks_and_leaves_nothing_running(tmp_path):
+    scenario = load_scenario(ROOT / "scenarios" / "hover.yaml")
+    handle = board_target("emulator").attach(scenario, tmp_path, LinkSettings(watchdog_s=2.0))
+    try:
+        assert handle.hil_session.report.info is not None and handle.realtime_pids()
+        process = handle.process
+    finally:
+        handle.close()
+    assert process is not None and process.popen.poll() is not None
