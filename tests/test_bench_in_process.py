@@ -4,6 +4,7 @@ no subprocess: a failure here points at the loop itself."""
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import threading
@@ -22,7 +23,9 @@ from hil.boards.emulator import emulator_config
 from hil.boards.handle import BoardHandle
 from hil.exit_codes import EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
 from hil.host.stop_signals import stopped_by_signals
+from hil.loop.board_io import SplitBoardIO
 from hil.loop.frame import StepFrame
+from hil.loop.pilot import Decision
 from hil.loop.sink import FrameSink
 from hil.loop.stepper import LoopResult, Stepper
 from hil.pilots.bench import BenchPilot
@@ -164,3 +167,43 @@ def test_a_paced_step_that_starts_late_because_its_sleep_overslept_counts_as_lat
     t_slip = next(t for t, ms in late if 29.5 <= ms < 35.0)
     assert [t for t, _ in late if t_slip < t <= t_slip + 0.05] == []  # no burst to catch up after the slip
     assert timing["slips"]["count"] >= 1, late
+
+
+class ShortPilot:
+    """Holds the board on the ground for `steps` decisions, then says the flight is over; asked again, it fails."""
+
+    def __init__(self, steps: int) -> None:
+        self.left = steps
+        self.asked_after_end = 0
+
+    def decide(self, view):
+        if self.left < 0:
+            self.asked_after_end += 1
+        self.left -= 1
+        if self.left < 0:
+            return None
+        return Decision("ground", None, -math.inf, False)
+
+    def progress(self) -> float:
+        return 0.0
+
+    def summary(self) -> dict:
+        return {}
+
+
+@pytest.mark.parametrize("split", [False, True])
+def test_a_pilot_that_ends_the_flight_is_not_asked_again(tmp_path, board_for, split):
+    scenario = hover(tmp_path, 1.0)
+    board_for.append(board := ThreadBoard(scenario))
+    plan = MissionPlan.build(scenario)
+    world = build_world(scenario, board.handle, vehicle_parameters(scenario, plan))
+    pilot, frames = ShortPilot(25), []
+    stepper = Stepper(world, board.handle, pilot, [FrameSink(frames.append)], step_us(scenario), False, "none")
+    if split:  # PX4 SITL's order: the next step decided while the board computes this one
+        stepper.io = SplitBoardIO(board.handle, "none", world.local_frame, world.environment.steady, stepper.timing)
+    try:
+        result = stepper.run()
+    finally:
+        world.plant.close()
+    assert (result.exit_code, pilot.asked_after_end) == (EXIT_OK, 0)
+    assert len(frames) == 25

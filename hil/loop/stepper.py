@@ -76,6 +76,7 @@ class Stepper:
         self.truth = world.plant.state()  # the true state after the latest step
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.armed = False
+        self.finished = False  # the pilot said the flight is over
         self.failsafe_texts: list[tuple[float, str]] = []  # the board's texts that say failsafe, with the time
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
         self._pending_inbox: list[Message] = []  # its board messages, decoded then too (off the board's wait)
@@ -134,7 +135,7 @@ class Stepper:
             if (stop := stop_requested()) is not None:  # its KeyboardInterrupt was lost where it landed
                 raise KeyboardInterrupt(stop)
             self.timing.start()
-            if planned is None and (planned := self._decide()) is None:
+            if planned is None and (self.finished or (planned := self._decide()) is None):
                 return
             planned = self._step(*planned)
             if self.paced:
@@ -151,6 +152,7 @@ class Stepper:
         view.now_s, view.truth, view.outputs_armed = self.t_us * 1e-6, self.truth, self.armed
         decision = self.pilot.decide(view)
         if decision is None:
+            self.finished = True  # asked once more it would have nothing to decide
             return None
         for ask in decision.asks:
             self.board.command_session.ask(ask)
