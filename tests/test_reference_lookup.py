@@ -6,7 +6,9 @@ from itertools import pairwise
 
 import numpy as np
 
-from hil.scenario.reference import Patrol, Waypoints, _smooth
+from hil.scenario.reference import Patrol, Waypoints
+from hil.scenario.reference.waypoints import smoothstep
+from hil.scenario.schema import Scenario
 
 
 def scanned(path: Waypoints, t: float) -> np.ndarray:
@@ -20,7 +22,7 @@ def scanned(path: Waypoints, t: float) -> np.ndarray:
         if a is None or t >= elapsed:
             start, a, b, duration = elapsed, p, q, seg
         elapsed += seg + path.dwell_s
-    s, _, _ = _smooth((t - start) / duration)
+    s, _, _ = smoothstep((t - start) / duration)
     return a + s * (b - a)
 
 
@@ -40,11 +42,8 @@ def test_a_patrol_builds_its_waypoints_once():
 
 
 def test_a_route_of_two_thousand_waypoints_is_a_valid_scenario():
-    from hil.scenario.mission import build_reference
-    from hil.scenario.schema import Scenario
-
     points = [[float(i % 50), float(i // 50), -10.0] for i in range(2000)]
     scenario = Scenario.model_validate({"name": "route", "duration_s": 600,
                                         "reference": {"type": "waypoints", "points_ned": points, "speed": 5.0}})
-    reference = build_reference(scenario)
+    reference = scenario.reference.trajectory()
     assert reference.sample(1e6).pos_ned.tolist() == points[-1]  # past the end: the last point

@@ -19,7 +19,8 @@ from foxglove import messages as fm
 from firmware_interface.emulator.geometry import euler_to_quat
 from firmware_interface.geodesy import LocalFrame
 from hil.scenario.mission import MissionPlan
-from hil.scenario.schema import PatrolRef, Scenario
+from hil.scenario.reference import PatrolRef
+from hil.scenario.schema import Scenario
 
 # NED axes seen from ENU: a half turn about (1, 1, 0)/√2 maps x→y, y→x, z→−z
 ENU_FROM_NED_WXYZ = (0.0, math.sqrt(0.5), math.sqrt(0.5), 0.0)

@@ -5,38 +5,15 @@ Times: the mission clock t is 0 when the reference starts; take-off happens at t
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from hil.scenario.reference import (
-    Helix,
-    Hover,
-    Patrol,
-    RefSample,
-    Trajectory,
-    Waypoints,
-)
-from hil.scenario.schema import HelixRef, HoverRef, PatrolRef, Scenario, WaypointsRef
+from hil.scenario.reference import RefSample, Trajectory, TrajectorySource, Waypoints
+from hil.scenario.schema import Scenario
 
 CLIMB_SPEED = 1.5  # m/s peak on the take-off and landing segments
 HOLD_BEFORE_S = 2.0  # hover at the start point before the mission clock starts
-
-
-def build_reference(scenario: Scenario) -> Trajectory:
-    ref = scenario.reference
-    if isinstance(ref, HoverRef):
-        return Hover((ref.north_m, ref.east_m, -ref.altitude_m), math.radians(ref.yaw_deg))
-    if isinstance(ref, HelixRef):
-        return Helix((0.0, 0.0, -ref.altitude_m), ref.radius_m, ref.angular_rate, ref.climb_rate,
-                     math.radians(ref.yaw_deg), ref.ramp_s)
-    if isinstance(ref, WaypointsRef):
-        yaw = math.radians(ref.yaw_deg) if ref.yaw_deg is not None else None
-        return Waypoints(tuple(ref.points_ned), ref.speed, ref.dwell_s, yaw)
-    assert isinstance(ref, PatrolRef)
-    return Patrol(ref.line_start_ned, ref.line_end_ned, ref.standoff_m, ref.altitude_m, ref.speed, ref.dwell_s,
-                  ref.passes)
 
 
 def _point(pos_ned: np.ndarray) -> tuple[float, float, float]:
@@ -52,7 +29,8 @@ class MissionPlan:
 
     @classmethod
     def build(cls, scenario: Scenario, ground_ned: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> MissionPlan:
-        reference = build_reference(scenario)
+        source: TrajectorySource = scenario.reference  # every member of the union builds its own trajectory
+        reference = source.trajectory()
         start = reference.sample(0.0)
         above_ground = (ground_ned[0], ground_ned[1], float(start.pos_ned[2]))
         takeoff = Waypoints((ground_ned, above_ground, _point(start.pos_ned)), CLIMB_SPEED, 0.0, start.yaw)

@@ -2,10 +2,10 @@
 
 Numbers: every float in a scenario is finite (`allow_inf_nan=False` on the base model, and on the sensor and
 emulator models a scenario reaches), except a fault's `end_s`, where `.inf` means "until the end". Bounds that
-keep a run possible and finite are on the fields' types: a mission of at most MAX_DURATION_S, positions
-within MAX_DISTANCE_M of home (take-off flies there at 1.5 m/s), at most MAX_MASS_KG. What depends on several
-fields is checked once the whole file has parsed (`Scenario._consistent`): every time on the mission clock
-inside the mission, intervals that end after they start, expressions over the mission, thrust-to-weight.
+keep a run possible and finite are on the fields' types (`hil.scenario.fields`); the `reference:` types are in
+`hil.scenario.reference`. What depends on several fields is checked once the whole file has parsed
+(`Scenario._consistent`): every time on the mission clock inside the mission, intervals that end after they
+start, expressions over the mission, thrust-to-weight, what the reference can fly within the mission.
 """
 
 from __future__ import annotations
@@ -16,8 +16,6 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (
     BaseModel,
-    BeforeValidator,
-    ConfigDict,
     Discriminator,
     Field,
     Tag,
@@ -34,34 +32,29 @@ from firmware_interface.emulator.config import build_config
 from firmware_interface.emulator.control.registry import ControllerName
 from hil.channels import CHANNEL_MODELS
 from hil.scenario.expressions import ExpressionError, compile_expression
+from hil.scenario.fields import (
+    MAX_MASS_KG,
+    Duration,
+    Length,
+    Mass,
+    MissionTime,
+    PositiveFloat,
+    ScenarioModel,
+    Speed,
+    UntilEnd,
+    WindVector,
+)
+from hil.scenario.reference import HoverRef, Reference
 from hil.scenario.vehicles import plant_parameters, thrust_to_weight
 from hil.sensors.faults import SensorFault
-from hil.sensors.geodesy import MAX_DISTANCE_M, Home
+from hil.sensors.geodesy import Home
 from hil.sensors.suite import SensorsConfig
 from plant_fmu.variables import PARAMETER_NAMES
 
-MAX_DURATION_S = 86_400.0  # 24 h of simulated time: longer would never finish in practice
-MAX_MASS_KG = 1_000.0
-MAX_SPEED_M_S = 100.0  # reference speeds and wind components
 MAX_RATE_HZ = 10_000.0  # telemetry rates
 MIN_INTEGRATION_STEP_S = 1e-6
-MAX_WAYPOINTS = 10_000  # a long inspection route; the reference finds its segment by bisection
-MAX_PASSES = 1000
 CHECK_ERROR = "scenario_check"  # the error type of the checks across fields (their messages say it all)
 MISSION_TIMES = ("start_s", "t_s", "settle_s")  # fields, in any part of a scenario, timed on the mission clock
-
-Duration = Annotated[float, Field(gt=0, le=MAX_DURATION_S)]
-MissionTime = Annotated[float, Field(ge=0, le=MAX_DURATION_S)]
-UntilEnd = Annotated[float, Field(gt=0, allow_inf_nan=True, description="s, or .inf (null in JSON): until the end"),
-                     BeforeValidator(lambda value: math.inf if value is None else value)]  # orjson writes inf as null
-Distance = Annotated[float, Field(ge=-MAX_DISTANCE_M, le=MAX_DISTANCE_M)]
-Length = Annotated[float, Field(gt=0, le=MAX_DISTANCE_M)]
-Speed = Annotated[float, Field(gt=0, le=MAX_SPEED_M_S)]
-WindSpeed = Annotated[float, Field(ge=-MAX_SPEED_M_S, le=MAX_SPEED_M_S)]
-Mass = Annotated[float, Field(ge=0, le=MAX_MASS_KG)]
-PositiveFloat = Annotated[float, Field(gt=0)]
-Position = tuple[Distance, Distance, Distance]
-WindVector = tuple[WindSpeed, WindSpeed, WindSpeed]
 
 
 def _number_unless(when: tuple[type, ...]) -> Discriminator:
@@ -81,10 +74,6 @@ else:
     ChannelName = Literal[tuple(CHANNEL_MODELS)]
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-
-
 _BOUNDS: dict[str, dict[str, float]] = {  # FMU parameters beyond finite; any other parameter is any number
     "mass": {"gt": 0, "le": MAX_MASS_KG},
     "integration_step": {"ge": MIN_INTEGRATION_STEP_S},
@@ -102,7 +91,7 @@ if TYPE_CHECKING:  # the fields are data (the FMU's parameter table); to a type 
 else:
     _VehicleParameters = create_model(  # one optional field per FMU parameter, so a typo names its own key
         "_VehicleParameters",
-        __base__=_Model,
+        __base__=ScenarioModel,
         **{name: (float | None, Field(None, **_BOUNDS.get(name, {}))) for name in PARAMETER_NAMES},
     )
 
@@ -120,65 +109,25 @@ class Vehicle(_VehicleParameters):
         return thrust_to_weight(plant_parameters(self.preset, self.overrides), payload_kg)
 
 
-class HoverRef(_Model):
-    type: Literal["hover"]
-    altitude_m: Length = 10.0
-    north_m: Distance = 0.0
-    east_m: Distance = 0.0
-    yaw_deg: float = 0.0
-
-
-class HelixRef(_Model):
-    type: Literal["helix"]
-    radius_m: Length = 1.0
-    angular_rate: float = 0.5
-    climb_rate: float = 1.0
-    yaw_deg: float = 30.0
-    altitude_m: Length = 10.0
-    ramp_s: MissionTime = 2.0
-
-
-class WaypointsRef(_Model):
-    type: Literal["waypoints"]
-    points_ned: list[Position] = Field(min_length=2, max_length=MAX_WAYPOINTS)
-    speed: Speed = 2.0
-    dwell_s: MissionTime = 0.0
-    yaw_deg: float | None = None
-
-
-class PatrolRef(_Model):
-    type: Literal["patrol"]
-    line_start_ned: Position
-    line_end_ned: Position
-    standoff_m: Length = 5.0
-    altitude_m: Length = 10.0
-    speed: Speed = 3.0
-    dwell_s: MissionTime = 2.0
-    passes: int = Field(2, ge=1, le=MAX_PASSES)
-
-
-Reference = Annotated[HoverRef | HelixRef | WaypointsRef | PatrolRef, Field(discriminator="type")]
-
-
-class Gust(_Model):
+class Gust(ScenarioModel):
     start_s: MissionTime
     duration_s: Duration
     peak_ned: WindVector
 
 
-class Turbulence(_Model):
+class Turbulence(ScenarioModel):
     intensity: Literal["light", "moderate", "severe"] = "light"
     altitude_m: Length = 10.0
     airspeed_m_s: Speed = 5.0
 
 
-class Wind(_Model):
+class Wind(ScenarioModel):
     steady_ned: WindVector = (0.0, 0.0, 0.0)
     gusts: list[Gust] = Field(default_factory=list)
     turbulence: Turbulence | None = None
 
 
-class Disturbance(_Model):
+class Disturbance(ScenarioModel):
     """Expressions of t (s): force in NED (N), torque in FRD (N·m)."""
 
     force_ned: tuple[ExpressionOrNumber, ExpressionOrNumber, ExpressionOrNumber] = (0.0, 0.0, 0.0)
@@ -197,19 +146,19 @@ class Disturbance(_Model):
         return [compile_expression(item, f"disturbance.{name}.{axis}") for axis, item in enumerate(getattr(self, name))]
 
 
-class PayloadStep(_Model):
+class PayloadStep(ScenarioModel):
     t_s: MissionTime
     mass_kg: Mass
 
 
-class MotorFault(_Model):
+class MotorFault(ScenarioModel):
     motor: int = Field(ge=1, le=4)
     start_s: MissionTime
     end_s: UntilEnd = math.inf
     health: float = Field(ge=0, le=1, description="thrust multiplier while the fault lasts")
 
 
-class LinkFault(_Model):
+class LinkFault(ScenarioModel):
     """A fault on the bench-board link between two mission times, in one direction or both. A scenario with
     link faults is paced in real time (they are wall-clock effects: a board's failsafe counts real time)."""
 
@@ -233,13 +182,13 @@ class LinkFault(_Model):
         return self
 
 
-class Faults(_Model):
+class Faults(ScenarioModel):
     motors: list[MotorFault] = Field(default_factory=list)
     sensors: list[SensorFault] = Field(default_factory=list)
     link: list[LinkFault] = Field(default_factory=list)
 
 
-class Board(_Model):
+class Board(ScenarioModel):
     """Settings for the built-in emulator (ignored by a real board): controller, airframe, gains, ..."""
 
     controller: ControllerName = "smarc"
@@ -256,11 +205,11 @@ class Board(_Model):
         return config
 
 
-class Telemetry(_Model):
+class Telemetry(ScenarioModel):
     rates_hz: dict[ChannelName, Annotated[float, Field(gt=0, le=MAX_RATE_HZ)]] = Field(default_factory=dict)
 
 
-class Bounds(_Model):
+class Bounds(ScenarioModel):
     max_error_m: ErrorBound | None = None  # m, on all axes or per axis
     max_attitude_error_deg: PositiveFloat | None = None
     min_realtime_factor: PositiveFloat | None = None
@@ -298,7 +247,7 @@ def _check(loc: Loc, value: Any, reason: str) -> InitErrorDetails:
                             input=value)
 
 
-class Scenario(_Model):
+class Scenario(ScenarioModel):
     name: str = Field(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.-]+$")
     description: str = ""
     duration_s: Duration = 30.0
@@ -320,7 +269,8 @@ class Scenario(_Model):
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
         """The checks across fields, each a separate error at its own field."""
-        errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors()]
+        errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors(),
+                  *self._reference_errors()]
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
@@ -359,3 +309,8 @@ class Scenario(_Model):
             yield _check(("vehicle", "thrust_max"), self.vehicle.thrust_max,
                          f"thrust-to-weight {ratio:.2f}: four rotors cannot lift the vehicle{with_payload}; "
                          f"expected above 1 (a larger thrust_max or a smaller mass)")
+
+    def _reference_errors(self) -> Iterator[InitErrorDetails]:
+        """What the reference cannot fly within this mission, each at its own field."""
+        for problem in self.reference.problems(self.duration_s):
+            yield _check(("reference", problem.field), problem.value, problem.reason)
