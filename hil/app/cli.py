@@ -261,22 +261,18 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from hil.app.progress import sample_progress
     from hil.scenario.loader import ScenarioError
-    from hil.sweep import SweepError, load_sweep, run_spec
+    from hil.sweep import ClusterUnreachable, SweepError, load_sweep, run_spec
 
-    path = Path(args.sweep)
     try:
-        spec = load_sweep(path)
+        spec = load_sweep(Path(args.sweep))
         out = Path(args.out) if args.out else Path("runs") / f"sweep-{spec.name}"
         with sample_progress(spec.name) as progress:
             outcome = run_spec(spec, out, jobs=args.jobs, cluster=args.cluster, limit=args.limit, resume=args.resume,
                                on_progress=progress)
-    except SweepError as exc:
-        print(exc, file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except ScenarioError as exc:
-        for problem in exc.problems:
-            print(problem, file=sys.stderr)
-        return EXIT_BAD_INPUT
+    except (SweepError, ScenarioError, ClusterUnreachable) as exc:
+        for line in str(exc).splitlines():
+            print(f"hil sweep: {line}" if line.startswith("--") else line, file=sys.stderr)  # an option, or a file
+        return EXIT_BOARD if isinstance(exc, ClusterUnreachable) else EXIT_BAD_INPUT
     failed = sum(r["exit_code"] not in (0, 1) for r in outcome.rows)
     print(f"{len(outcome.rows)} of {outcome.total} samples finished ({failed} failed to fly)"
           f"{'; interrupted: hil sweep --resume continues' if outcome.interrupted else ''}")
