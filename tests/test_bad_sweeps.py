@@ -96,7 +96,7 @@ def _not_a_sweep(tmp_path: Path) -> Path:
 OPTIONS: dict[str, tuple[Callable[[Path], list[str]], str, str]] = {
     "jobs_zero": (lambda _: ["--jobs", "0"], f"expected 1 to {max_jobs()}", "hil sweep: --jobs 0"),
     "jobs_negative": (lambda _: ["--jobs", "-3"], f"expected 1 to {max_jobs()}", "hil sweep: --jobs -3"),
-    "jobs_100000": (lambda _: ["--jobs", "100000"], "a larger study takes --cluster", "--jobs 100000"),
+    "jobs_100000": (lambda _: ["--jobs", "100000"], f"expected 1 to {max_jobs()}", "--jobs 100000"),
     "jobs_not_a_number": (lambda _: ["--jobs", "two"], "invalid int value: 'two'", "usage: hil sweep"),
     "limit_zero": (lambda _: ["--limit", "0"], "at least 1", "hil sweep: --limit 0"),
     "limit_negative": (lambda _: ["--limit", "-1"], "at least 1", "hil sweep: --limit -1"),

@@ -11,6 +11,8 @@ from typing import Any
 from firmware_interface.emulator.control.registry import CONTROLLERS
 from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
 
+MAX_COMPARE_SEEDS = 1000  # flights per controller: a comparison past this is a sweep
+
 
 def _cmd_fmu_build(args: argparse.Namespace) -> int:
     from plant_fmu.build import build_fmu, default_fmu_path
@@ -102,7 +104,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenarios, bad = _load([args.scenario])
     if bad:
         return EXIT_BAD_INPUT
-    scenario = _with_run_options(scenarios[0][1], args)
+    for problem in (problems := _run_input_problems(args)):
+        print(f"hil run: {problem}", file=sys.stderr)
+    scenario = None if problems else _with_run_options(scenarios[0][1], args)
     options = None if scenario is None else _run_options(args, scenario)
     if scenario is None or options is None:
         return EXIT_BAD_INPUT
@@ -119,6 +123,46 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if not args.no_report and outcome.exit_code != EXIT_INTERRUPTED:
         _report_after_run(outcome.run_dir)
     return outcome.exit_code
+
+
+def _run_input_problems(args: argparse.Namespace) -> list[str]:
+    """`hil run`'s options outside the board choice that cannot be used, one line each, before anything starts."""
+    return [p for p in (_runs_problem(args), _baud_problem(args), *_endpoint_problems(args)) if p]
+
+
+def _runs_problem(args: argparse.Namespace) -> str | None:
+    from hil.host.paths import unwritable
+
+    reason = unwritable(Path(args.runs))
+    return f"--runs {args.runs}: {reason}" if reason else None
+
+
+def _baud_problem(args: argparse.Namespace) -> str | None:
+    from serial import SerialBase
+
+    if args.baud is None or args.baud in SerialBase.BAUDRATES:
+        return None
+    return (f"--baud {args.baud}: not a serial baud rate; expected one of {', '.join(map(str, SerialBase.BAUDRATES))}"
+            " (PX4's USB and TELEM ports: 57600, 115200, 921600)")
+
+
+def _endpoint_problems(args: argparse.Namespace) -> list[str]:
+    """Every --gcs and --mavlink endpoint parsed, and its host resolved: a name that does not resolve is bad
+    input before any board starts, not a relay that fails in flight."""
+    from firmware_interface.link import LinkError, parse_connection
+    from hil.host.addresses import unresolved
+
+    problems = []
+    for option, endpoint in [*(("--gcs", e) for e in args.gcs or []), *([("--mavlink", args.mavlink)]
+                                                                       if args.mavlink else [])]:
+        try:
+            connection = parse_connection(endpoint)
+        except LinkError as exc:
+            problems.append(f"{option} {endpoint}: {exc}")
+            continue
+        if connection.kind != "serial" and (reason := unresolved(connection.address)):
+            problems.append(f"{option} {endpoint}: {reason}")
+    return problems
 
 
 def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
@@ -166,6 +210,21 @@ def _zenoh_options(args: argparse.Namespace):
                         multicast_scouting=not endpoints)
 
 
+def _zenoh_problem(args: argparse.Namespace) -> str | None:
+    """Why the Zenoh options make no configuration (a file missing or malformed, an endpoint Zenoh refuses)."""
+    import zenoh
+
+    from hil.outputs.telemetry import zenoh_config
+
+    if args.zenoh_config and not Path(args.zenoh_config).is_file():
+        return f"--zenoh-config {args.zenoh_config}: no such file"
+    try:
+        zenoh_config(_zenoh_options(args))
+    except zenoh.ZError as exc:
+        return f"Zenoh: {' '.join(str(exc).split(' at /')[0].split())}"
+    return None
+
+
 def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("Zenoh", "default: a peer that finds others on this machine by multicast "
                                                "scouting; with endpoints, scouting is off")
@@ -177,18 +236,29 @@ def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
 def _cmd_watch(args: argparse.Namespace) -> int:
     from hil.app.watch import watch
 
+    if problem := _zenoh_problem(args):
+        print(f"hil watch: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return watch(None if args.latest else args.run_id, _zenoh_options(args), args.wait)
 
 
 def _cmd_echo(args: argparse.Namespace) -> int:
-    from hil.app.watch import echo
+    from hil.app.watch import echo, key_expr_problem
 
+    problem = key_expr_problem(args.key_expr)
+    if problem:
+        print(f"hil echo: key expression {args.key_expr!r}: {problem}; e.g. 'hil/**/state'", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if problem := _zenoh_problem(args):
+        print(f"hil echo: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return echo(args.key_expr, _zenoh_options(args))
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from hil.reports.html import NoFlightData, write_report
     from hil.reports.png import report
+    from hil.reports.rundata import BadRunFile
 
     run_dir = Path(args.run_dir)
     if not (run_dir / "recording.mcap").is_file():
@@ -198,7 +268,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         print(write_report(run_dir))
         for figure in report(run_dir, paper_frame=args.paper_frame):
             print(figure)
-    except NoFlightData as exc:
+    except (NoFlightData, BadRunFile) as exc:
         print(f"hil report: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     return EXIT_OK
@@ -207,10 +277,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _report_after_run(run_dir: Path) -> None:
     """report.html at the end of `hil run`; a run without flight data gets a note instead of a page."""
     from hil.reports.html import NoFlightData, write_report
+    from hil.reports.rundata import BadRunFile
 
     try:
         print(f"report: {write_report(run_dir)}")
-    except NoFlightData as exc:
+    except (NoFlightData, BadRunFile) as exc:
         print(f"no report: {exc}")
 
 
@@ -242,6 +313,9 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
         parse_address(args.listen)
     except ValueError as exc:
         print(f"hil foxglove: --listen {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if problem := _zenoh_problem(args):
+        print(f"hil foxglove: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     session = open_session(_zenoh_options(args))
     stop = threading.Event()
@@ -280,21 +354,35 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_INTERRUPTED if outcome.interrupted else EXIT_OK
 
 
+def _compare_problems(args: argparse.Namespace, controllers: list[str], out: Path) -> list[str]:
+    """`hil compare`'s options that cannot be used, one line each."""
+    from hil.sweep.options import option_problems
+
+    problems = option_problems(args.jobs, None, None, out, resume=False)
+    unknown = sorted(set(controllers) - set(CONTROLLERS))
+    if unknown or not controllers:
+        problems.append(f"--controllers {args.controllers}: {'unknown ' + ', '.join(unknown) if unknown else 'none'}"
+                        f"; expected a comma-separated list of {', '.join(CONTROLLERS)}")
+    if not 1 <= args.seeds <= MAX_COMPARE_SEEDS:
+        problems.append(f"--seeds {args.seeds}: expected 1 to {MAX_COMPARE_SEEDS} seeds per controller")
+    return problems
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from hil.app.compare import compare
 
     scenarios, bad = _load([args.scenario])
     if bad:
         return EXIT_BAD_INPUT
-    controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    unknown = sorted(set(controllers) - set(CONTROLLERS))
-    if unknown:
-        print(f"hil compare: unknown controller(s) {', '.join(unknown)}: expected {', '.join(CONTROLLERS)}",
-              file=sys.stderr)
-        return EXIT_BAD_INPUT
     scenario = scenarios[0][1]
-    seeds = [scenario.seed + i for i in range(args.seeds)]
+    controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
     out = Path(args.out) if args.out else Path("runs") / f"compare-{scenario.name}"
+    problems = _compare_problems(args, controllers, out)
+    for problem in problems:
+        print(f"hil compare: {problem}", file=sys.stderr)
+    if problems:
+        return EXIT_BAD_INPUT
+    seeds = [scenario.seed + i for i in range(args.seeds)]
     result, markdown = compare(Path(args.scenario), scenario, controllers, seeds, args.jobs, out)
     print(markdown, end="")
     print(f"written: {out / 'comparison.md'}, {out / 'comparison.json'}, plots under {out}")

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 
 from hil.host.addresses import unresolved
+from hil.host.paths import unwritable
 
 MAX_JOBS_PER_CORE = 4  # each worker flies one run at a time, about one core (the bench and its board alternate)
 CONNECT_TIMEOUT_S = 10.0  # to reach a --cluster scheduler: a refused or silent one is a board-kind failure
@@ -37,11 +38,8 @@ def _cluster_problem(address: str) -> str | None:
 
 
 def _out_problem(out: Path, resume: bool) -> str | None:
-    if out.exists() and not out.is_dir():
-        return f"--out {out}: exists and is not a directory"
-    existing = next(p for p in (out, *out.parents) if p.exists())
-    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
-        return f"--out {out}: cannot be written ({existing} is {'read-only' if existing.is_dir() else 'a file'})"
+    if reason := unwritable(out):
+        return f"--out {out}: {reason}"
     if resume and not out.is_dir():
         return f"--resume: {out} does not exist; nothing to resume (give the --out of the stopped sweep)"
     if resume and not is_sweep_dir(out):
@@ -54,7 +52,7 @@ def option_problems(jobs: int, limit: int | None, cluster: str | None, out: Path
     problems = []
     if not 1 <= jobs <= max_jobs():
         problems.append(f"--jobs {jobs}: expected 1 to {max_jobs()} worker processes on this machine "
-                        f"({MAX_JOBS_PER_CORE} per core; a larger study takes --cluster)")
+                        f"({MAX_JOBS_PER_CORE} per core)")
     if limit is not None and limit < 1:
         problems.append(f"--limit {limit}: expected a number of samples of at least 1")
     if cluster is not None and (reason := _cluster_problem(cluster)):
