@@ -47,6 +47,7 @@ MAX_RATE_HZ = 10_000.0  # telemetry rates
 MIN_INTEGRATION_STEP_S = 1e-6
 MAX_WAYPOINTS = 10_000  # a long inspection route; the reference finds its segment by bisection
 MAX_PASSES = 1000
+MIN_PATROL_LINE_M = 1.0  # horizontal: the standoff side and the heading facing the line come from its direction
 CHECK_ERROR = "scenario_check"  # the error type of the checks across fields (their messages say it all)
 MISSION_TIMES = ("start_s", "t_s", "settle_s")  # fields, in any part of a scenario, timed on the mission clock
 
@@ -155,6 +156,17 @@ class PatrolRef(_Model):
     speed: Speed = 3.0
     dwell_s: MissionTime = 2.0
     passes: int = Field(2, ge=1, le=MAX_PASSES)
+
+    @field_validator("line_end_ned")
+    @classmethod
+    def _has_a_direction(cls, end: Position, info: ValidationInfo) -> Position:
+        start = info.data.get("line_start_ned")
+        length = math.hypot(end[0] - start[0], end[1] - start[1]) if start is not None else math.inf
+        if length < MIN_PATROL_LINE_M:
+            raise ValueError(f"the line from {list(start)} to {list(end)} is {length:.3g} m long horizontally; "
+                             f"expected at least {MIN_PATROL_LINE_M:g} m (its direction sets the standoff side and "
+                             "the heading)")
+        return end
 
 
 Reference = Annotated[HoverRef | HelixRef | WaypointsRef | PatrolRef, Field(discriminator="type")]
@@ -320,7 +332,7 @@ class Scenario(_Model):
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
         """The checks across fields, each a separate error at its own field."""
-        errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors()]
+        errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors(), *self._payload_errors()]
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
@@ -349,6 +361,16 @@ class Scenario(_Model):
                     compile_expression(item, sample_times=times)
                 except ExpressionError as exc:
                     yield _check(("disturbance", name), item, str(exc))
+
+    def _payload_errors(self) -> Iterator[InitErrorDetails]:
+        """Two steps at one time must agree on the mass: which one holds would be the file's order, not its intent."""
+        first: dict[float, tuple[int, float]] = {}
+        for index, step in enumerate(self.payload):
+            earlier = first.setdefault(step.t_s, (index, step.mass_kg))
+            if earlier[1] != step.mass_kg:
+                yield _check(("payload", index, "mass_kg"), step.mass_kg,
+                             f"payload[{earlier[0]}] sets {earlier[1]:g} kg at the same time (t_s = {step.t_s:g} s); "
+                             "expected one mass per time")
 
     def _lift_errors(self) -> Iterator[InitErrorDetails]:
         """The vehicle must lift itself and its heaviest payload with some thrust to spare for control."""
