@@ -161,7 +161,9 @@ class PatrolRef(_Model):
     @classmethod
     def _has_a_direction(cls, end: Position, info: ValidationInfo) -> Position:
         start = info.data.get("line_start_ned")
-        length = math.hypot(end[0] - start[0], end[1] - start[1]) if start is not None else math.inf
+        if start is None:  # line_start_ned is wrong itself, and said so
+            return end
+        length = math.hypot(end[0] - start[0], end[1] - start[1])
         if length < MIN_PATROL_LINE_M:
             raise ValueError(f"the line from {list(start)} to {list(end)} is {length:.3g} m long horizontally; "
                              f"expected at least {MIN_PATROL_LINE_M:g} m (its direction sets the standoff side and "
