@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import signal
 import sys
 from pathlib import Path
 from typing import Any
 
 from firmware_interface.emulator.control.registry import CONTROLLERS
-from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
-
-MAX_COMPARE_SEEDS = 1000  # flights per controller: a comparison past this is a sweep
+from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_DISK_FULL, EXIT_INTERRUPTED, EXIT_OK
 
 
 def _cmd_fmu_build(args: argparse.Namespace) -> int:
@@ -104,7 +103,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenarios, bad = _load([args.scenario])
     if bad:
         return EXIT_BAD_INPUT
-    for problem in (problems := _run_input_problems(args)):
+    from hil.app.input_checks import run_input_problems
+
+    for problem in (problems := run_input_problems(args)):
         print(f"hil run: {problem}", file=sys.stderr)
     scenario = None if problems else _with_run_options(scenarios[0][1], args)
     options = None if scenario is None else _run_options(args, scenario)
@@ -117,52 +118,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
             signal.signal(sig, signal.SIG_IGN)
     print(outcome.summary, end="")
     if not outcome.kept:
-        print(f"run directory removed: the board never connected (--keep-failed keeps {outcome.run_dir})")
+        if outcome.exit_code != EXIT_DISK_FULL:  # a full disk says so in its summary
+            print(f"run directory removed: the board never connected (--keep-failed keeps {outcome.run_dir})")
         return outcome.exit_code
     print(f"run directory: {outcome.run_dir}")
-    if not args.no_report and outcome.exit_code != EXIT_INTERRUPTED:
+    if not args.no_report and outcome.exit_code not in (EXIT_INTERRUPTED, EXIT_DISK_FULL):
         _report_after_run(outcome.run_dir)
     return outcome.exit_code
-
-
-def _run_input_problems(args: argparse.Namespace) -> list[str]:
-    """`hil run`'s options outside the board choice that cannot be used, one line each, before anything starts."""
-    return [p for p in (_runs_problem(args), _baud_problem(args), *_endpoint_problems(args)) if p]
-
-
-def _runs_problem(args: argparse.Namespace) -> str | None:
-    from hil.host.paths import unwritable
-
-    reason = unwritable(Path(args.runs))
-    return f"--runs {args.runs}: {reason}" if reason else None
-
-
-def _baud_problem(args: argparse.Namespace) -> str | None:
-    from serial import SerialBase
-
-    if args.baud is None or args.baud in SerialBase.BAUDRATES:
-        return None
-    return (f"--baud {args.baud}: not a serial baud rate; expected one of {', '.join(map(str, SerialBase.BAUDRATES))}"
-            " (PX4's USB and TELEM ports: 57600, 115200, 921600)")
-
-
-def _endpoint_problems(args: argparse.Namespace) -> list[str]:
-    """Every --gcs and --mavlink endpoint parsed, and its host resolved: a name that does not resolve is bad
-    input before any board starts, not a relay that fails in flight."""
-    from firmware_interface.link import LinkError, parse_connection
-    from hil.host.addresses import unresolved
-
-    problems = []
-    for option, endpoint in [*(("--gcs", e) for e in args.gcs or []), *([("--mavlink", args.mavlink)]
-                                                                       if args.mavlink else [])]:
-        try:
-            connection = parse_connection(endpoint)
-        except LinkError as exc:
-            problems.append(f"{option} {endpoint}: {exc}")
-            continue
-        if connection.kind != "serial" and (reason := unresolved(connection.address)):
-            problems.append(f"{option} {endpoint}: {reason}")
-    return problems
 
 
 def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
@@ -210,21 +172,6 @@ def _zenoh_options(args: argparse.Namespace):
                         multicast_scouting=not endpoints)
 
 
-def _zenoh_problem(args: argparse.Namespace) -> str | None:
-    """Why the Zenoh options make no configuration (a file missing or malformed, an endpoint Zenoh refuses)."""
-    import zenoh
-
-    from hil.outputs.telemetry import zenoh_config
-
-    if args.zenoh_config and not Path(args.zenoh_config).is_file():
-        return f"--zenoh-config {args.zenoh_config}: no such file"
-    try:
-        zenoh_config(_zenoh_options(args))
-    except zenoh.ZError as exc:
-        return f"Zenoh: {' '.join(str(exc).split(' at /')[0].split())}"
-    return None
-
-
 def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("Zenoh", "default: a peer that finds others on this machine by multicast "
                                                "scouting; with endpoints, scouting is off")
@@ -234,22 +181,24 @@ def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
+    from hil.app.input_checks import zenoh_problem
     from hil.app.watch import watch
 
-    if problem := _zenoh_problem(args):
+    if problem := zenoh_problem(args.zenoh_config, _zenoh_options(args)):
         print(f"hil watch: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     return watch(None if args.latest else args.run_id, _zenoh_options(args), args.wait)
 
 
 def _cmd_echo(args: argparse.Namespace) -> int:
+    from hil.app.input_checks import zenoh_problem
     from hil.app.watch import echo, key_expr_problem
 
     problem = key_expr_problem(args.key_expr)
     if problem:
         print(f"hil echo: key expression {args.key_expr!r}: {problem}; e.g. 'hil/**/state'", file=sys.stderr)
         return EXIT_BAD_INPUT
-    if problem := _zenoh_problem(args):
+    if problem := zenoh_problem(args.zenoh_config, _zenoh_options(args)):
         print(f"hil echo: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     return echo(args.key_expr, _zenoh_options(args))
@@ -271,6 +220,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
     except (NoFlightData, BadRunFile) as exc:
         print(f"hil report: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:  # the report's files cannot be written
+        print(f"hil report: {exc.filename or run_dir}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_DISK_FULL if exc.errno in (errno.ENOSPC, errno.EDQUOT) else EXIT_BAD_INPUT
     return EXIT_OK
 
 
@@ -283,6 +235,8 @@ def _report_after_run(run_dir: Path) -> None:
         print(f"report: {write_report(run_dir)}")
     except (NoFlightData, BadRunFile) as exc:
         print(f"no report: {exc}")
+    except OSError as exc:  # report.html cannot be written (a disk that filled as the run ended)
+        print(f"no report: {run_dir / 'report.html'}: {exc.strerror or exc}")
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
@@ -306,6 +260,7 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
     import threading
 
     from hil.app.foxglove_bridge import bridge_zenoh
+    from hil.app.input_checks import zenoh_problem
     from hil.outputs.foxglove_live import parse_address
     from hil.outputs.telemetry import open_session
 
@@ -314,7 +269,7 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"hil foxglove: --listen {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    if problem := _zenoh_problem(args):
+    if problem := zenoh_problem(args.zenoh_config, _zenoh_options(args)):
         print(f"hil foxglove: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     session = open_session(_zenoh_options(args))
@@ -354,22 +309,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     return EXIT_INTERRUPTED if outcome.interrupted else EXIT_OK
 
 
-def _compare_problems(args: argparse.Namespace, controllers: list[str], out: Path) -> list[str]:
-    """`hil compare`'s options that cannot be used, one line each."""
-    from hil.sweep.options import option_problems
-
-    problems = option_problems(args.jobs, None, None, out, resume=False)
-    unknown = sorted(set(controllers) - set(CONTROLLERS))
-    if unknown or not controllers:
-        problems.append(f"--controllers {args.controllers}: {'unknown ' + ', '.join(unknown) if unknown else 'none'}"
-                        f"; expected a comma-separated list of {', '.join(CONTROLLERS)}")
-    if not 1 <= args.seeds <= MAX_COMPARE_SEEDS:
-        problems.append(f"--seeds {args.seeds}: expected 1 to {MAX_COMPARE_SEEDS} seeds per controller")
-    return problems
-
-
 def _cmd_compare(args: argparse.Namespace) -> int:
     from hil.app.compare import compare
+    from hil.app.input_checks import compare_problems
 
     scenarios, bad = _load([args.scenario])
     if bad:
@@ -377,7 +319,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     scenario = scenarios[0][1]
     controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
     out = Path(args.out) if args.out else Path("runs") / f"compare-{scenario.name}"
-    problems = _compare_problems(args, controllers, out)
+    problems = compare_problems(args, controllers, out)
     for problem in problems:
         print(f"hil compare: {problem}", file=sys.stderr)
     if problems:
@@ -441,7 +383,8 @@ def _add_run_command(sub: argparse._SubParsersAction) -> None:
         "Pixhawk (SYS_HITL=1) use --port /dev/ttyACM0 (wall-clock real time). With a PX4 SITL you started "
         "yourself use --port tcpin:127.0.0.1:4560 --mavlink udpout:127.0.0.1:14580. Exit codes: 0 pass, "
         "1 expectations not met or the flight went wrong, 2 bad input, 3 board/link failure, 4 internal error "
-        "(a bench bug; traceback in the run's bench.log), 130 interrupted."))
+        "(a bench bug; traceback in the run's bench.log), 5 disk full (the flight stopped; hil recover the "
+        "recording), 130 interrupted."))
     run.add_argument("scenario", help="scenario YAML file")
     board = run.add_mutually_exclusive_group()
     board.add_argument("--port", help="board connection: /dev/ttyACM0, serial:PATH:BAUD, tcpin:HOST:PORT, tcp:, "

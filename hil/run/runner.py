@@ -29,6 +29,7 @@ from hil.boards.px4 import Px4Build
 from hil.exit_codes import (
     EXIT_BAD_INPUT,
     EXIT_BOARD,
+    EXIT_DISK_FULL,
     EXIT_EXPECT_FAILED,
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
@@ -38,6 +39,7 @@ from hil.exit_codes import (
 from hil.host.stop_signals import stopped_by_signals
 from hil.judge.metrics import check_expectations, slip_note
 from hil.loop.bench import Bench, Sink
+from hil.outputs.disk import filesystem_of, is_no_space
 from hil.outputs.foxglove_live import FoxgloveServer
 from hil.outputs.foxglove_messages import mission_scene
 from hil.outputs.recorder import Recorder, make_run_dir
@@ -133,15 +135,33 @@ def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | No
         return _run(scenario, options, sinks, progress)
 
 
+def _no_room(runs_root: Path, run_dir: Path) -> RunOutcome:
+    """The outcome of a run whose directory could not even be set up for lack of space: nothing flew."""
+    shutil.rmtree(run_dir, ignore_errors=True)
+    reason = f"disk full: no space left on {filesystem_of(runs_root)} for a run directory; nothing was started"
+    return RunOutcome(EXIT_DISK_FULL, reason, run_dir, {}, [], f"result: ABORTED (exit {EXIT_DISK_FULL:d})\n"
+                      f"ended: {reason}\n", kept=False)
+
+
 def _run(scenario: Scenario, options: RunOptions, sinks: list[Sink] | None, progress: Any) -> RunOutcome:
-    run_dir = make_run_dir(options.runs_root, scenario.name)
+    try:
+        run_dir = make_run_dir(options.runs_root, scenario.name)
+    except OSError as exc:
+        if not is_no_space(exc):
+            raise
+        return _no_room(options.runs_root, options.runs_root)
     meta = {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
             "board": _board_label(options), "board_kind": _board_kind(options), "command_link": options.mavlink,
             "pacing": "realtime" if options.realtime else "lockstep (realtime for a serial board)"}
     resolved = scenario.model_dump(mode="json")
     home = scenario.home
     local_frame = home.frame
-    recorder = Recorder(run_dir, resolved, meta, local_frame, scene=lambda t_ns: mission_scene(scenario, t_ns))
+    try:
+        recorder = Recorder(run_dir, resolved, meta, local_frame, scene=lambda t_ns: mission_scene(scenario, t_ns))
+    except OSError as exc:
+        if not is_no_space(exc):
+            raise
+        return _no_room(options.runs_root, run_dir)
     state = _RunState()
     flight_code = (f"emulator, controller {scenario.board.controller}"
                    if options.port is None and options.px4 is None and options.px4_hitl is None
@@ -153,8 +173,12 @@ def _run(scenario: Scenario, options: RunOptions, sinks: list[Sink] | None, prog
     except KeyboardInterrupt as exc:
         state.reason, state.code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
     except Exception as exc:
-        state.internal_error = traceback.format_exc()
-        state.reason, state.code = f"internal error: {type(exc).__name__}: {exc}", EXIT_INTERNAL
+        if is_no_space(exc):  # a write no watch guards: the end is the same
+            recorder.disk.failed(Path(exc.filename).name if exc.filename else "the run directory")  # type: ignore[attr-defined]
+            state.reason, state.code = recorder.disk.reason(), EXIT_DISK_FULL
+        else:
+            state.internal_error = traceback.format_exc()
+            state.reason, state.code = f"internal error: {type(exc).__name__}: {exc}", EXIT_INTERNAL
     finally:
         summary = _close(scenario, run_dir, recorder, parts, state, flight_code)
     never_connected = parts.handle is None and state.code in (EXIT_BOARD, EXIT_BAD_INPUT, EXIT_INTERRUPTED)
@@ -198,7 +222,7 @@ def _fly(scenario: Scenario, options: RunOptions, run_dir: Path, recorder: Recor
                                              {**scenario.telemetry.rates_hz, **options.telemetry_rates_hz},
                                              lambda: parts.handle.session.link.counters)  # type: ignore[union-attr]
     try:
-        parts.handle = handle = attach_board(scenario, options, run_dir, parts.tlog)
+        parts.handle = handle = attach_board(scenario, options, run_dir, recorder.disk.guard(parts.tlog, "link.tlog"))
     except (BoardError, LinkError) as exc:
         state.reason, state.code = f"board/link failure: {exc}", EXIT_BOARD
         return None
@@ -257,11 +281,12 @@ def _close(scenario: Scenario, run_dir: Path, recorder: Recorder, parts: _RunPar
            flight_code: str) -> str:
     """Stop the board, close every file and session; the summary and metrics say how the run ended."""
     if state.internal_error is not None:
-        (run_dir / "bench.log").write_text(state.internal_error)
+        recorder.disk.release()  # the traceback goes in the reserve, whatever the error was
+        recorder.disk.attempt("bench.log", lambda: (run_dir / "bench.log").write_text(state.internal_error or ""))
         state.reason += f" (a bench bug: traceback in {run_dir / 'bench.log'})"
     if parts.handle is not None:
         parts.handle.close()
-    parts.tlog.close()
+    recorder.disk.attempt("link.tlog", parts.tlog.close)
     summary = format_summary(scenario, state.board_text, flight_code, state.reason, state.code, state.metrics,
                              state.failures)
     full_metrics = {"exit_code": state.code, "reason": state.reason, "expectations_failed": state.failures,
