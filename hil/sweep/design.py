@@ -77,7 +77,7 @@ def scenario_data(base: dict[str, Any], spec: SweepSpec, sample: Sample) -> dict
     """The base scenario with the sweep's overrides and then the sample's values applied."""
     data = copy.deepcopy(base)
     for path, value in {**spec.overrides, **sample.values}.items():
-        set_path(data, path, value)
+        set_path(data, path, copy.deepcopy(value))  # a sample setting inside an override must not change the spec
     return data
 
 
