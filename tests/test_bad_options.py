@@ -50,6 +50,7 @@ def _with_mission_state(run_dir: Path) -> None:
         writer.finish()
 
 
+@pytest.mark.slow  # the first import of the report modules (matplotlib): ~1 s
 def test_report_of_a_run_whose_metrics_json_is_cut_short(tmp_path):
     run_dir = tmp_path / "run"
     _with_mission_state(run_dir)
