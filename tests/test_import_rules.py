@@ -28,7 +28,7 @@ ALLOWED: dict[str, set[str]] = {
     "hil.loop": _BELOW_LOOP | {EMULATOR},  # the emulator's geometry and controller names decode board messages
     "hil.judge": {"hil.loop", "hil.scenario", "hil.exit_codes", "plant_fmu", FI, EMULATOR},
     "hil.pilots": _BELOW_LOOP | {"hil.loop", "hil.judge"},
-    "hil.outputs": {"hil.loop", "hil.channels", "hil.scenario", "hil.host", FI, EMULATOR},
+    "hil.outputs": {"hil.loop", "hil.channels", "hil.scenario", "hil.host", "hil.exit_codes", FI, EMULATOR},
     "hil.reports": {"hil.outputs", "hil.channels", "hil.judge", "hil.scenario", "hil.exit_codes", FI, EMULATOR},
     "hil.run": _BELOW_LOOP | {"hil.loop", "hil.judge", "hil.pilots", "hil.outputs", "hil.channels"},
     "hil.sweep": {"hil.run", "hil.scenario", "hil.host", "hil.exit_codes"},

@@ -239,3 +239,12 @@ def test_sample_values_reach_the_flown_scenario(tmp_path):
     assert data["seed"] == 42 and data["wind"]["steady_ned"] == [1.0, -2.0, 0.0]
     assert data["board"]["controller"] == "smpid"
     assert base["seed"] == 1  # the base is not changed
+
+
+def test_a_sample_that_sets_inside_an_override_leaves_the_override_and_other_samples_alone():
+    spec = SweepSpec.model_validate({"name": "p", "scenario": "x.yaml", "design": "grid",
+                                     "overrides": {"payload": [{"t_s": 1, "mass_kg": 0.0}]},
+                                     "vary": {"payload[0].mass_kg": [0.5, 3.0]}})
+    light, heavy = (scenario_data({"name": "b"}, spec, sample) for sample in samples(spec))
+    assert light["payload"] == [{"t_s": 1, "mass_kg": 0.5}] and heavy["payload"] == [{"t_s": 1, "mass_kg": 3.0}]
+    assert spec.overrides["payload"] == [{"t_s": 1, "mass_kg": 0.0}]

@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import signal
 import sys
 from pathlib import Path
 from typing import Any
 
 from firmware_interface.emulator.control.registry import CONTROLLERS
-from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
+from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_DISK_FULL, EXIT_INTERRUPTED, EXIT_OK
 
 
 def _cmd_fmu_build(args: argparse.Namespace) -> int:
@@ -102,7 +103,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
     scenarios, bad = _load([args.scenario])
     if bad:
         return EXIT_BAD_INPUT
-    scenario = _with_run_options(scenarios[0][1], args)
+    from hil.app.input_checks import run_input_problems
+
+    for problem in (problems := run_input_problems(args)):
+        print(f"hil run: {problem}", file=sys.stderr)
+    scenario = None if problems else _with_run_options(scenarios[0][1], args)
     options = None if scenario is None else _run_options(args, scenario)
     if scenario is None or options is None:
         return EXIT_BAD_INPUT
@@ -113,10 +118,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
             signal.signal(sig, signal.SIG_IGN)
     print(outcome.summary, end="")
     if not outcome.kept:
-        print(f"run directory removed: the board never connected (--keep-failed keeps {outcome.run_dir})")
+        if outcome.exit_code != EXIT_DISK_FULL:  # a full disk says so in its summary
+            print(f"run directory removed: the board never connected (--keep-failed keeps {outcome.run_dir})")
         return outcome.exit_code
     print(f"run directory: {outcome.run_dir}")
-    if not args.no_report and outcome.exit_code != EXIT_INTERRUPTED:
+    if not args.no_report and outcome.exit_code not in (EXIT_INTERRUPTED, EXIT_DISK_FULL):
         _report_after_run(outcome.run_dir)
     return outcome.exit_code
 
@@ -186,20 +192,33 @@ def _add_zenoh_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_watch(args: argparse.Namespace) -> int:
+    from hil.app.input_checks import zenoh_problem
     from hil.app.watch import watch
 
+    if problem := zenoh_problem(args.zenoh_config, _zenoh_options(args)):
+        print(f"hil watch: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return watch(None if args.latest else args.run_id, _zenoh_options(args), args.wait)
 
 
 def _cmd_echo(args: argparse.Namespace) -> int:
-    from hil.app.watch import echo
+    from hil.app.input_checks import zenoh_problem
+    from hil.app.watch import echo, key_expr_problem
 
+    problem = key_expr_problem(args.key_expr)
+    if problem:
+        print(f"hil echo: key expression {args.key_expr!r}: {problem}; e.g. 'hil/**/state'", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if problem := zenoh_problem(args.zenoh_config, _zenoh_options(args)):
+        print(f"hil echo: {problem}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     return echo(args.key_expr, _zenoh_options(args))
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from hil.reports.html import NoFlightData, write_report
     from hil.reports.png import report
+    from hil.reports.rundata import BadRunFile
 
     run_dir = Path(args.run_dir)
     if not (run_dir / "recording.mcap").is_file():
@@ -209,20 +228,26 @@ def _cmd_report(args: argparse.Namespace) -> int:
         print(write_report(run_dir))
         for figure in report(run_dir, paper_frame=args.paper_frame):
             print(figure)
-    except NoFlightData as exc:
+    except (NoFlightData, BadRunFile) as exc:
         print(f"hil report: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:  # the report's files cannot be written
+        print(f"hil report: {exc.filename or run_dir}: {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_DISK_FULL if exc.errno in (errno.ENOSPC, errno.EDQUOT) else EXIT_BAD_INPUT
     return EXIT_OK
 
 
 def _report_after_run(run_dir: Path) -> None:
     """report.html at the end of `hil run`; a run without flight data gets a note instead of a page."""
     from hil.reports.html import NoFlightData, write_report
+    from hil.reports.rundata import BadRunFile
 
     try:
         print(f"report: {write_report(run_dir)}")
-    except NoFlightData as exc:
+    except (NoFlightData, BadRunFile) as exc:
         print(f"no report: {exc}")
+    except OSError as exc:  # report.html cannot be written (a disk that filled as the run ended)
+        print(f"no report: {run_dir / 'report.html'}: {exc.strerror or exc}")
 
 
 def _cmd_recover(args: argparse.Namespace) -> int:
@@ -246,6 +271,7 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
     import threading
 
     from hil.app.foxglove_bridge import bridge_zenoh
+    from hil.app.input_checks import zenoh_problem
     from hil.outputs.foxglove_live import parse_address
     from hil.outputs.zenoh_session import open_session
 
@@ -253,6 +279,9 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
         parse_address(args.listen)
     except ValueError as exc:
         print(f"hil foxglove: --listen {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if problem := zenoh_problem(args.zenoh_config, _zenoh_options(args)):
+        print(f"hil foxglove: {problem}", file=sys.stderr)
         return EXIT_BAD_INPUT
     session = open_session(_zenoh_options(args))
     stop = threading.Event()
@@ -272,22 +301,18 @@ def _cmd_foxglove(args: argparse.Namespace) -> int:
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from hil.app.progress import sample_progress
     from hil.scenario.loader import ScenarioError
-    from hil.sweep import SweepError, load_sweep, run_spec
+    from hil.sweep import ClusterUnreachable, SweepError, load_sweep, run_spec
 
-    path = Path(args.sweep)
     try:
-        spec = load_sweep(path)
+        spec = load_sweep(Path(args.sweep))
         out = Path(args.out) if args.out else Path("runs") / f"sweep-{spec.name}"
         with sample_progress(spec.name) as progress:
             outcome = run_spec(spec, out, jobs=args.jobs, cluster=args.cluster, limit=args.limit, resume=args.resume,
                                on_progress=progress)
-    except SweepError as exc:
-        print(exc, file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except ScenarioError as exc:
-        for problem in exc.problems:
-            print(problem, file=sys.stderr)
-        return EXIT_BAD_INPUT
+    except (SweepError, ScenarioError, ClusterUnreachable) as exc:
+        for line in str(exc).splitlines():
+            print(f"hil sweep: {line}" if line.startswith("--") else line, file=sys.stderr)  # an option, or a file
+        return EXIT_BOARD if isinstance(exc, ClusterUnreachable) else EXIT_BAD_INPUT
     failed = sum(r["exit_code"] not in (0, 1) for r in outcome.rows)
     print(f"{len(outcome.rows)} of {outcome.total} samples finished ({failed} failed to fly)"
           f"{'; interrupted: hil sweep --resume continues' if outcome.interrupted else ''}")
@@ -297,19 +322,20 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from hil.app.compare import compare
+    from hil.app.input_checks import compare_problems
 
     scenarios, bad = _load([args.scenario])
     if bad:
         return EXIT_BAD_INPUT
-    controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
-    unknown = sorted(set(controllers) - set(CONTROLLERS))
-    if unknown:
-        print(f"hil compare: unknown controller(s) {', '.join(unknown)}: expected {', '.join(CONTROLLERS)}",
-              file=sys.stderr)
-        return EXIT_BAD_INPUT
     scenario = scenarios[0][1]
-    seeds = [scenario.seed + i for i in range(args.seeds)]
+    controllers = [c.strip() for c in args.controllers.split(",") if c.strip()]
     out = Path(args.out) if args.out else Path("runs") / f"compare-{scenario.name}"
+    problems = compare_problems(args, controllers, out)
+    for problem in problems:
+        print(f"hil compare: {problem}", file=sys.stderr)
+    if problems:
+        return EXIT_BAD_INPUT
+    seeds = [scenario.seed + i for i in range(args.seeds)]
     result, markdown = compare(Path(args.scenario), scenario, controllers, seeds, args.jobs, out)
     print(markdown, end="")
     print(f"written: {out / 'comparison.md'}, {out / 'comparison.json'}, plots under {out}")
@@ -368,7 +394,8 @@ def _add_run_command(sub: argparse._SubParsersAction) -> None:
         "Pixhawk (SYS_HITL=1) use --port /dev/ttyACM0 (wall-clock real time). With a PX4 SITL you started "
         "yourself use --port tcpin:127.0.0.1:4560 --mavlink udpout:127.0.0.1:14580. Exit codes: 0 pass, "
         "1 expectations not met or the flight went wrong, 2 bad input, 3 board/link failure, 4 internal error "
-        "(a bench bug; traceback in the run's bench.log), 130 interrupted."))
+        "(a bench bug; traceback in the run's bench.log), 5 disk full (the flight stopped; hil recover the "
+        "recording), 130 interrupted."))
     run.add_argument("scenario", help="scenario YAML file")
     board = run.add_mutually_exclusive_group()
     board.add_argument("--board", metavar="SPEC", help="the board as one name: emulator (the default), px4:DIR, "

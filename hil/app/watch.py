@@ -173,6 +173,15 @@ def watch(run_id: str | None, options: ZenohOptions, wait_s: float = 60.0) -> in
         close_within(session.close)
 
 
+def key_expr_problem(key_expr: str) -> str | None:
+    """Why Zenoh would refuse `key_expr` (empty chunks, `**/**`, a `*` inside a chunk, `#` or `?`), or None."""
+    try:
+        zenoh.KeyExpr(key_expr)
+    except zenoh.ZError as exc:
+        return str(exc).split(" at /")[0].split("`: ", 1)[-1]
+    return None
+
+
 def echo(key_expr: str, options: ZenohOptions) -> int:
     """Every sample on `key_expr` as one JSON line `{"key": ..., "sample": ...}` on stdout."""
     session = open_session(options)

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from firmware_interface.geodesy import LocalFrame
+from hil.outputs.disk import DiskWatch
 from hil.outputs.foxglove_messages import mission_scene
 from hil.outputs.zenoh_session import ZenohOptions
 from hil.scenario.schema import Scenario
@@ -27,6 +28,7 @@ class OutputContext:
     paced: bool  # the run is paced on the wall clock: an output must never hold a step up
     rates_hz: dict[str, float]  # live channels' rates (the scenario's telemetry.rates_hz and the command line's)
     link_counters: Callable[[], dict[str, int]]  # the board link's frame counters, once a board is attached
+    disk: DiskWatch  # the run directory's space: its reserve, the first write that failed for lack of it
     telemetry: ZenohOptions | None = None  # publish on Zenoh with these options; None: not
     foxglove: str | None = None  # serve a live Foxglove view on this HOST:PORT; None: not
 

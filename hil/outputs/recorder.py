@@ -24,6 +24,7 @@ factor, measured).
 from __future__ import annotations
 
 import json
+import os
 import platform
 import queue
 import subprocess
@@ -47,6 +48,7 @@ from hil.host.stop_signals import uninterrupted
 from hil.loop.frame import StepFrame
 from hil.loop.sink import Outcome
 from hil.outputs.context import OutputContext
+from hil.outputs.disk import DiskWatch, partial_record_start
 from hil.outputs.foxglove_channels import byte_loggers, json_channels, view_channels
 from hil.outputs.foxglove_messages import FoxgloveViews
 
@@ -132,9 +134,10 @@ class Recorder:
 
     def __init__(self, run_dir: Path, resolved_scenario: dict[str, Any], meta: dict[str, Any],
                  local_frame: LocalFrame, scene: Any = None, start_ns: int | None = None,
-                 background: bool = False) -> None:
+                 background: bool = False, disk: DiskWatch | None = None) -> None:
         self.dir = run_dir
         self.start_ns = time.time_ns() if start_ns is None else start_ns
+        self.disk = DiskWatch(run_dir) if disk is None else disk  # its reserve, the watch on the writer's errors
         scenario_text = yaml.safe_dump(resolved_scenario, sort_keys=False)
         (run_dir / "scenario.yaml").write_text(scenario_text)
         versions = {p: _version(p) for p in ("hil-bench", "fmpy", "pymavlink", "numpy", "eclipse-zenoh")}
@@ -143,7 +146,8 @@ class Recorder:
         meta_text = json.dumps(meta, indent=2, default=str)
         (run_dir / "meta.json").write_text(meta_text)
         self._context = foxglove.Context()  # the recording's own: the live server logs in another
-        self._writer = foxglove.open_mcap(run_dir / "recording.mcap", context=self._context,
+        self._path = run_dir / "recording.mcap"
+        self._writer: Any = foxglove.open_mcap(self._path, context=self._context,
                                           writer_options=MCAPWriteOptions(chunk_size=CHUNK_BYTES, profile="",
                                                                           compression=MCAPCompression.Lz4))
         self._writer.write_metadata("scenario", {"yaml": scenario_text})
@@ -164,7 +168,11 @@ class Recorder:
         self.write_messages(frame.t_us, frame_messages(frame))
 
     def write_messages(self, t_us: int, messages: list[tuple[str, dict[str, Any]]]) -> None:
-        """Write one step's messages, or queue them for the writer thread (in call order either way)."""
+        """Write one step's messages, or queue them for the writer thread (in call order either way); DiskFull
+        once a write of the run has failed for lack of space, and from then on nothing is written."""
+        if self.disk.failure is not None:
+            self.disk.check()
+            return
         if self._failure is not None:
             raise OSError(f"writing {self.dir / 'recording.mcap'} failed: {self._failure}") from self._failure
         if not self.background:
@@ -208,12 +216,14 @@ class Recorder:
         self.write_messages(t_us, [("events", {"t_us": t_us, "text": text})])
 
     def close(self, outcome: Outcome) -> None:
-        """Metrics and summary first, then the recording's end: a stop signal that arrives meanwhile waits
-        for the queued steps and the file's summary, and is raised once everything is on disk."""
+        """Metrics and summary first (in the room the disk watch kept), then the recording's end: a stop signal
+        that arrives meanwhile waits for the queued steps and the file's summary, and is raised once everything
+        is on disk. On a full disk what cannot be written is skipped; the recording stays recoverable."""
+        self.disk.release()
         metrics_text = json.dumps(outcome.metrics, indent=2, default=float)
         summary = outcome.summary
-        (self.dir / "metrics.json").write_text(metrics_text)
-        (self.dir / "summary.txt").write_text(summary)
+        self.disk.attempt("metrics.json", lambda: (self.dir / "metrics.json").write_text(metrics_text))
+        self.disk.attempt("summary.txt", lambda: (self.dir / "summary.txt").write_text(summary))
         if self.closed:
             return
         self.closed = True
@@ -222,12 +232,21 @@ class Recorder:
                 self._queue.put(None)
                 self._thread.join()
                 sys.setswitchinterval(self._switch_interval_s)
-            self._writer.write_metadata("metrics", {"json": metrics_text, "summary": summary})
-            self._writer.close()
+            cut_at = partial_record_start(self._path) if self.disk.failure is not None else None
+            try:
+                self._writer.write_metadata("metrics", {"json": metrics_text, "summary": summary})
+                self._writer.close()
+            except RuntimeError:  # foxglove's FoxgloveError: the file could not be finished (what the watch saw)
+                self.disk.failed("recording.mcap")
+            finally:
+                self._writer = None  # dropped now, while Python runs: at exit its error log would panic
+                if cut_at is not None:  # what a failed write left half-written, and all the close put after it
+                    os.truncate(self._path, cut_at)
+                self.disk.close()
 
 
 def open_output(context: OutputContext) -> Recorder:
     """The run directory's files and the recording: always. A paced run writes on a thread of its own, so that a
     chunk's compression never delays a step."""
     return Recorder(context.run_dir, context.resolved_scenario, context.meta, context.local_frame, context.scene,
-                    context.start_ns, background=context.paced)
+                    context.start_ns, background=context.paced, disk=context.disk)

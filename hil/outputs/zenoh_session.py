@@ -31,6 +31,11 @@ def close_within(close: Callable[[], None], timeout_s: float = 1.0) -> None:
 
 
 def open_session(options: ZenohOptions) -> zenoh.Session:
+    return zenoh.open(zenoh_config(options))
+
+
+def zenoh_config(options: ZenohOptions) -> zenoh.Config:
+    """The session's configuration; zenoh.ZError for a file or endpoint Zenoh cannot use."""
     config = zenoh.Config.from_file(str(options.config_file)) if options.config_file else zenoh.Config()
     if options.connect:
         config.insert_json5("connect/endpoints", json.dumps(options.connect))
@@ -43,4 +48,4 @@ def open_session(options: ZenohOptions) -> zenoh.Session:
         # answers within ~1 ms (a subscriber already running missed only the first of 1 kHz samples put right
         # after an open without the wait), and one that joins later gets the run from then on, as always
         config.insert_json5("scouting/delay", "0")
-    return zenoh.open(config)
+    return config

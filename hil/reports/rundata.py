@@ -39,6 +39,10 @@ class NoFlightData(ValueError):
     """A run directory whose recording holds no mission-phase state: there is nothing to draw."""
 
 
+class BadRunFile(ValueError):
+    """A file of the run directory that cannot be read back (cut short by a full disk, edited by hand)."""
+
+
 def rpy_from_quaternion(q_wxyz: np.ndarray) -> np.ndarray:
     """ZYX Euler angles (roll, pitch, yaw, rad) of FRD in NED from quaternions (N, 4), scalar first."""
     return np.array([quat_to_euler(q) for q in np.asarray(q_wxyz, dtype=float).reshape(-1, 4)]).reshape(-1, 3)
@@ -125,14 +129,36 @@ def read_channels(path: Path, channels: Collection[str] = REPORT_CHANNELS) -> di
 
 
 def _no_flight_data(run_dir: Path, what: str) -> NoFlightData:
-    metrics_path = run_dir / "metrics.json"
-    reason = json.loads(metrics_path.read_text()).get("reason") if metrics_path.is_file() else None
+    try:
+        reason = _json(run_dir / "metrics.json").get("reason")
+    except BadRunFile:
+        reason = None
     ended = f" (the run ended: {' '.join(str(reason).split())})" if reason else ""
     return NoFlightData(f"{run_dir}: no flight data to report: {what}{ended}")
 
 
 def _json(path: Path) -> dict[str, Any]:
-    return json.loads(path.read_text()) if path.is_file() else {}
+    """The file's JSON object ({} without the file), or BadRunFile."""
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise BadRunFile(f"{path}: not valid JSON, cut short? ({exc})") from None
+    if not isinstance(data, dict):
+        raise BadRunFile(f"{path}: expected a JSON object, found {type(data).__name__}")
+    return data
+
+
+def _scenario(path: Path) -> dict[str, Any]:
+    """The run's resolved scenario ({} without the file), or BadRunFile."""
+    if not path.is_file():
+        return {}
+    try:
+        data = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise BadRunFile(f"{path}: cannot be read as YAML ({str(exc).splitlines()[0]})") from None
+    return data if isinstance(data, dict) else {}
 
 
 @dataclass
@@ -182,8 +208,7 @@ def load_flight(run_dir: Path, channels: Collection[str] = REPORT_CHANNELS) -> F
     if first is None:
         raise _no_flight_data(run_dir, "the recording has no mission-phase state samples")
     scenario_path, summary_path = run_dir / "scenario.yaml", run_dir / "summary.txt"
-    scenario = yaml.safe_load(scenario_path.read_text()) if scenario_path.is_file() else {}
-    return Flight(run_dir=run_dir, scenario=scenario,
+    return Flight(run_dir=run_dir, scenario=_scenario(scenario_path),
                   meta=_json(run_dir / "meta.json"), metrics=_json(run_dir / "metrics.json"),
                   summary=summary_path.read_text() if summary_path.is_file() else "", channels=data,
                   mission_start_us=first["t_us"] - first["mission_t"] * 1e6)

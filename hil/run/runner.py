@@ -15,18 +15,27 @@ from pathlib import Path
 from typing import Any
 
 from firmware_interface.board import BoardError
-from firmware_interface.link import LinkError, TlogWriter
+from firmware_interface.link import FrameTap, LinkError, TlogWriter
 from firmware_interface.link.dialect import message_name
 from hil.boards.emulator import EmulatorTarget
 from hil.boards.gcs_relay import GcsBridge
 from hil.boards.handle import BoardHandle
 from hil.boards.target import BoardPolicy, BoardTarget, LinkSettings
-from hil.exit_codes import EXIT_BAD_INPUT, EXIT_BOARD, EXIT_EXPECT_FAILED, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK
+from hil.exit_codes import (
+    EXIT_BAD_INPUT,
+    EXIT_BOARD,
+    EXIT_DISK_FULL,
+    EXIT_EXPECT_FAILED,
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+)
 from hil.host.stop_signals import stopped_by_signals
 from hil.judge.metrics import MetricsCollector, check_expectations
 from hil.loop.sink import Outcome, Sink
 from hil.loop.stepper import Progress, Stepper
 from hil.outputs.context import OutputContext, OutputError
+from hil.outputs.disk import DiskWatch, filesystem_of, is_no_space
 from hil.outputs.recorder import make_run_dir
 from hil.outputs.registry import OUTPUTS
 from hil.outputs.zenoh_session import ZenohOptions
@@ -93,14 +102,21 @@ class _Run:
     policy: BoardPolicy
     paced: bool
     run_dir: Path
+    disk: DiskWatch  # the run directory's space: a reserve for the last files, the first write that failed
     report: _RunReport
 
     @classmethod
     def prepare(cls, scenario: Scenario, options: RunOptions) -> _Run:
+        """The run's directory and its disk watch (OSError when there is no room even for them)."""
         policy = options.board.policy(scenario)
         paced = options.realtime or policy.wall_clock or bool(scenario.faults.link)
-        return cls(scenario, options, policy, paced, make_run_dir(options.runs_root, scenario.name),
-                   _RunReport(policy.autopilot))
+        run_dir = make_run_dir(options.runs_root, scenario.name)
+        try:
+            disk = DiskWatch(run_dir)
+        except OSError:
+            shutil.rmtree(run_dir, ignore_errors=True)
+            raise
+        return cls(scenario, options, policy, paced, run_dir, disk, _RunReport(policy.autopilot))
 
     @property
     def meta(self) -> dict[str, Any]:
@@ -113,10 +129,10 @@ class _Run:
         report = self.report
         return OutputContext(self.run_dir, self.scenario, self.meta, time.time_ns(), self.paced,
                              {**self.scenario.telemetry.rates_hz, **self.options.telemetry_rates_hz},
-                             lambda: report.handle.hil_session.link.counters if report.handle else {},
+                             lambda: report.handle.hil_session.link.counters if report.handle else {}, self.disk,
                              self.options.telemetry, self.options.foxglove)
 
-    def attach_and_fly(self, sinks: list[Sink], progress: Progress | None, stack: ExitStack, tlog: TlogWriter) -> None:
+    def attach_and_fly(self, sinks: list[Sink], progress: Progress | None, stack: ExitStack, tlog: FrameTap) -> None:
         """Attach, fly, judge; fills `report`. What it opens is closed by `stack`."""
         scenario, report = self.scenario, self.report
         plan = MissionPlan.build(scenario)
@@ -149,25 +165,43 @@ class _Run:
             report.code = EXIT_EXPECT_FAILED if report.failures else EXIT_OK
 
 
+def _no_room(runs_root: Path) -> RunOutcome:
+    """The outcome of a run whose directory could not even be set up for lack of space: nothing flew."""
+    reason = f"disk full: no space left on {filesystem_of(runs_root)} for a run directory; nothing was started"
+    return RunOutcome(EXIT_DISK_FULL, reason, runs_root, {}, [],
+                      f"result: ABORTED (exit {EXIT_DISK_FULL:d})\nended: {reason}\n", kept=False)
+
+
 def _run(scenario: Scenario, options: RunOptions, extra_sinks: list[Sink], progress: Progress | None) -> RunOutcome:
-    run = _Run.prepare(scenario, options)
-    report = run.report
+    try:
+        run = _Run.prepare(scenario, options)
+    except OSError as exc:
+        if not is_no_space(exc):
+            raise
+        return _no_room(options.runs_root)
+    report, disk = run.report, run.disk
     sinks: list[Sink] = []
     with ExitStack() as stack:
+        stack.callback(disk.close)
         tlog = TlogWriter(run.run_dir / "link.tlog")
-        stack.callback(lambda: _close(scenario, run.run_dir, sinks, report))
-        stack.callback(tlog.close)
+        stack.callback(lambda: _close(scenario, run, sinks))
+        stack.callback(lambda: disk.attempt("link.tlog", tlog.close))
         try:
             context = run.output_context()
             sinks += [sink for open_output in OUTPUTS if (sink := open_output(context)) is not None]
-            run.attach_and_fly([*sinks, *extra_sinks], progress, stack, tlog)
+            run.attach_and_fly([*sinks, *extra_sinks], progress, stack, disk.guard(tlog, "link.tlog"))
         except OutputError as exc:
             report.reason, report.code = str(exc), EXIT_BAD_INPUT
         except KeyboardInterrupt as exc:
             report.reason, report.code = f"interrupted ({exc.args[0] if exc.args else 'Ctrl-C'})", EXIT_INTERRUPTED
         except Exception as exc:
-            report.internal_error = traceback.format_exc()
-            report.reason, report.code = f"internal error: {type(exc).__name__}: {exc}", EXIT_INTERNAL
+            if is_no_space(exc):  # a write no watch guards: the end is the same
+                filename = getattr(exc, "filename", None)
+                disk.failed(Path(filename).name if filename else "the run directory")
+                report.reason, report.code = disk.reason(), EXIT_DISK_FULL
+            else:
+                report.internal_error = traceback.format_exc()
+                report.reason, report.code = f"internal error: {type(exc).__name__}: {exc}", EXIT_INTERNAL
     never_connected = report.handle is None and report.code in (EXIT_BOARD, EXIT_BAD_INPUT, EXIT_INTERRUPTED)
     if never_connected and not options.keep_failed:  # nothing flew: no directory to clutter runs/
         shutil.rmtree(run.run_dir, ignore_errors=True)
@@ -203,10 +237,12 @@ def _link_figures(stepper: Stepper, handle: BoardHandle) -> dict[str, Any]:
     return figures
 
 
-def _close(scenario: Scenario, run_dir: Path, sinks: list[Sink], report: _RunReport) -> None:
+def _close(scenario: Scenario, run: _Run, sinks: list[Sink]) -> None:
     """The summary and metrics say how the run ended; every sink closes with them, in the order they opened."""
+    report, run_dir = run.report, run.run_dir
     if report.internal_error is not None:
-        (run_dir / "bench.log").write_text(report.internal_error)
+        run.disk.release()  # the traceback goes in the reserve, whatever the error was
+        run.disk.attempt("bench.log", lambda: (run_dir / "bench.log").write_text(report.internal_error or ""))
         report.reason += f" (a bench bug: traceback in {run_dir / 'bench.log'})"
     report.summary = format_summary(scenario, report.board_text, report.autopilot, report.reason, report.code,
                                    report.metrics, report.failures)

@@ -4,6 +4,7 @@ Loading is bounded before anything can take long or recurse deep: the file's siz
 (UTF-8), and, from the YAML event stream alone, the nesting depth (MAX_DEPTH) and the node count with every
 alias expanded (MAX_NODES: a billion-laughs file is refused before it is built). A key given twice in a
 mapping is an error (YAML would keep the last one silently). At most MAX_PROBLEMS problems are listed.
+`read_yaml` is the bench's one bounded YAML reader: sweep files are read through it too.
 """
 
 from __future__ import annotations
@@ -20,8 +21,8 @@ from pydantic_core import ErrorDetails
 from hil.scenario.expressions import echo
 from hil.scenario.schema import CHECK_ERROR, Scenario
 
-MAX_BYTES = 1_000_000  # a scenario is a few kB
-MAX_DEPTH = 20  # nested mappings and lists; a scenario needs 5
+MAX_BYTES = 1_000_000  # a scenario or a sweep is a few kB
+MAX_DEPTH = 20  # nested mappings and lists; a scenario or a sweep needs 5
 MAX_NODES = 100_000  # with aliases expanded; a scenario has a few hundred
 MAX_PROBLEMS = 20
 MAX_FIELD_CHARS = 120  # a line's field and message are cut there, whatever they quote
@@ -75,7 +76,7 @@ def _read_text(path: Path) -> str:
     except OSError as exc:
         raise _fail(path, f"cannot read: {exc.strerror or exc}") from None
     if len(raw) > MAX_BYTES:
-        raise _fail(path, f"larger than {MAX_BYTES:,} bytes; a scenario is a few kB of YAML")
+        raise _fail(path, f"larger than {MAX_BYTES:,} bytes; a scenario or a sweep is a few kB of YAML")
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -104,7 +105,7 @@ def _size_problem(text: str) -> tuple[int, str] | None:
             if isinstance(event, yaml.CollectionStartEvent):
                 open_collections.append((event.anchor, total))
                 if len(open_collections) > MAX_DEPTH:
-                    return line, f"nested deeper than {MAX_DEPTH} levels; a scenario needs about 5"
+                    return line, f"nested deeper than {MAX_DEPTH} levels; a scenario or a sweep needs about 5"
             elif event.anchor is not None:
                 expanded[event.anchor] = 1
         elif isinstance(event, yaml.CollectionEndEvent):
@@ -113,7 +114,7 @@ def _size_problem(text: str) -> tuple[int, str] | None:
                 expanded[anchor] = total - opened_at + 1
         if total > MAX_NODES:
             return line, (f"more than {MAX_NODES:,} YAML nodes with aliases expanded (an alias bomb?); "
-                          f"a scenario has a few hundred")
+                          f"a scenario or a sweep has a few hundred")
     return None
 
 
@@ -163,8 +164,11 @@ def _yaml(path: Path, step: Callable[[], T]) -> T:
         raise _fail(path, f"not valid YAML: {exc}") from None
 
 
-def _parse(path: Path, text: str) -> tuple[dict[YamlPath, yaml.Node], Any]:
-    """The document's nodes by path (for line numbers) and its data, or ScenarioError."""
+def read_yaml(path: Path) -> tuple[dict[YamlPath, yaml.Node], Any]:
+    """The document's nodes by path (for line numbers) and its data, or ScenarioError: the file read within
+    every bound above, a duplicate key refused."""
+    path = Path(path)
+    text = _read_text(path)
     too_big = _yaml(path, lambda: _size_problem(text))
     if too_big:
         raise _fail(path, too_big[1], too_big[0])
@@ -197,7 +201,8 @@ def _locate(index: dict[YamlPath, yaml.Node], loc: tuple[Any, ...], kind: str) -
     return (node.start_mark.line + 1 if node is not None else None), tuple(kept)
 
 
-def _describe(error: ErrorDetails) -> str:
+def describe(error: ErrorDetails) -> str:
+    """What is wrong with the value, in words: what was found and what is expected."""
     kind, found = error["type"], error.get("input")
     if kind == "extra_forbidden":
         return "unknown field; remove it or check its spelling"
@@ -217,23 +222,23 @@ def _describe(error: ErrorDetails) -> str:
     return f"found {shown}, expected: {expected}"
 
 
-def _problems(path: Path, index: dict[YamlPath, yaml.Node], exc: ValidationError) -> list[Problem]:
-    """One problem per error, in the file's order."""
+def located_problems(path: Path, index: dict[YamlPath, yaml.Node], exc: ValidationError) -> list[Problem]:
+    """One problem per error, in the file's order, with the line of the field it names."""
     problems = []
     for error in exc.errors(include_url=False):
         line, loc = _locate(index, error["loc"], error["type"])
-        problems.append(Problem(path, line, ".".join(str(p) for p in loc), _describe(error)))
+        problems.append(Problem(path, line, ".".join(str(p) for p in loc), describe(error)))
     return sorted(problems, key=lambda p: p.line or 0)
 
 
 def load_scenario(path: Path) -> Scenario:
     """The validated scenario, or ScenarioError with one Problem per mistake."""
     path = Path(path)
-    index, data = _parse(path, _read_text(path))
+    index, data = read_yaml(path)
     if not isinstance(data, dict):
         found = "an empty file" if data is None else type(data).__name__
         raise _fail(path, f"expected a mapping of scenario fields, found {found}", 1)
     try:
         return Scenario.model_validate(data)
     except ValidationError as exc:
-        raise ScenarioError(_problems(path, index, exc)) from None
+        raise ScenarioError(located_problems(path, index, exc)) from None

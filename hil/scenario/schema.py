@@ -270,7 +270,7 @@ class Scenario(ScenarioModel):
     def _consistent(self) -> Scenario:
         """The checks across fields, each a separate error at its own field."""
         errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors(),
-                  *self._reference_errors()]
+                  *self._payload_errors(), *self._reference_errors()]
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
@@ -299,6 +299,16 @@ class Scenario(ScenarioModel):
                     compile_expression(item, sample_times=times)
                 except ExpressionError as exc:
                     yield _check(("disturbance", name), item, str(exc))
+
+    def _payload_errors(self) -> Iterator[InitErrorDetails]:
+        """Two steps at one time must agree on the mass: which one holds would be the file's order, not its intent."""
+        first: dict[float, tuple[int, float]] = {}
+        for index, step in enumerate(self.payload):
+            earlier = first.setdefault(step.t_s, (index, step.mass_kg))
+            if earlier[1] != step.mass_kg:
+                yield _check(("payload", index, "mass_kg"), step.mass_kg,
+                             f"payload[{earlier[0]}] sets {earlier[1]:g} kg at the same time (t_s = {step.t_s:g} s); "
+                             "expected one mass per time")
 
     def _lift_errors(self) -> Iterator[InitErrorDetails]:
         """The vehicle must lift itself and its heaviest payload with some thrust to spare for control."""

@@ -22,40 +22,62 @@ class Sample:
     values: dict[str, Any]  # path -> value, varied and crossed
 
 
-def set_path(tree: dict[str, Any], path: str, value: Any) -> None:
-    """Set `a.b[0].c` in a scenario's plain data; a missing mapping on the way is created, a missing list
-    item is an error (KeyError naming the path)."""
-    node: Any = tree
+class PathError(KeyError):
+    """A path that leads nowhere in the scenario: a list item past the end, a key inside a value."""
+
+    def __init__(self, path: str, reason: str) -> None:
+        super().__init__(path, reason)
+        self.path, self.reason = path, reason
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.reason}"
+
+
+def path_steps(path: str) -> tuple[str | int, ...]:
+    """`a.b[0].c` as ("a", "b", 0, "c")."""
     steps: list[str | int] = []
     for part in path.split("."):
         name, indexes = _STEP.fullmatch(part).groups()  # type: ignore[union-attr]
         steps.append(name)
         steps += [int(i) for i in re.findall(r"\d+", indexes)]
+    return tuple(steps)
+
+
+def _item(node: Any, path: str, index: int) -> Any:
+    if not isinstance(node, list):
+        raise PathError(path, f"[{index}] indexes a {type(node).__name__}, not a list")
+    if index >= len(node):
+        raise PathError(path, f"no item [{index}]: the scenario has {len(node)} there")
+    return node[index]
+
+
+def set_path(tree: dict[str, Any], path: str, value: Any) -> None:
+    """Set `a.b[0].c` in a scenario's plain data; a missing mapping on the way is created, a missing list
+    item is an error (PathError, a KeyError naming the path)."""
+    node: Any = tree
+    steps = path_steps(path)
     for key, following in itertools.pairwise(steps):
-        if isinstance(key, str):
-            if not isinstance(node, dict):
-                raise KeyError(f"{path}: {key!r} is not inside a mapping")
+        if isinstance(key, int):
+            node = _item(node, path, key)
+        elif isinstance(node, dict):
             node = node.setdefault(key, [] if isinstance(following, int) else {})
         else:
-            if not isinstance(node, list) or key >= len(node):
-                raise KeyError(f"{path}: no item [{key}] (the base scenario has {len(node)})")
-            node = node[key]
+            raise PathError(path, f"{key!r} is not inside a mapping")
     last = steps[-1]
     if isinstance(last, int):
-        if not isinstance(node, list) or last >= len(node):
-            raise KeyError(f"{path}: no item [{last}]")
+        _item(node, path, last)
         node[last] = value
     elif isinstance(node, dict):
         node[last] = value
     else:
-        raise KeyError(f"{path}: {last!r} is not inside a mapping")
+        raise PathError(path, f"{last!r} is not inside a mapping")
 
 
 def scenario_data(base: dict[str, Any], spec: SweepSpec, sample: Sample) -> dict[str, Any]:
     """The base scenario with the sweep's overrides and then the sample's values applied."""
     data = copy.deepcopy(base)
     for path, value in {**spec.overrides, **sample.values}.items():
-        set_path(data, path, value)
+        set_path(data, path, copy.deepcopy(value))  # a sample setting inside an override must not change the spec
     return data
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from hil.host.lifetime import die_with_parent
+from hil.sweep.options import CONNECT_TIMEOUT_S
 
 RESULT = "result.json"
 SAMPLE_TIMEOUT_S = 3600.0  # a sample that runs longer than this is stopped and reported
@@ -77,18 +78,31 @@ def finished_results(out: Path) -> dict[int, dict[str, Any]]:
     """Results already on disk (from an earlier, stopped sweep), by sample index."""
     found = {}
     for path in (out / "samples").glob(f"*/{RESULT}"):
-        result = json.loads(path.read_text())
-        found[result["index"]] = result
+        try:
+            result = json.loads(path.read_text())
+            found[int(result["index"])] = result
+        except (OSError, ValueError, KeyError, TypeError):  # cut short or foreign: the sample flies again
+            continue
     return found
+
+
+class ClusterUnreachable(OSError):
+    """No Dask scheduler answered at the --cluster address in time."""
 
 
 @contextmanager
 def dask_client(jobs: int, address: str | None) -> Iterator[Any]:
-    """A client of the cluster at `address`, or of a LocalCluster of `jobs` single-threaded processes."""
+    """A client of the cluster at `address` (ClusterUnreachable if none answers within CONNECT_TIMEOUT_S), or
+    of a LocalCluster of `jobs` single-threaded processes."""
     from dask.distributed import Client, LocalCluster
 
     if address is not None:
-        with Client(address, timeout=30) as client:
+        try:
+            client = Client(address, timeout=CONNECT_TIMEOUT_S)
+        except OSError as exc:  # refused or silent: dask retries until its timeout, then says so
+            raise ClusterUnreachable(f"--cluster {address}: no Dask scheduler answered within "
+                                     f"{CONNECT_TIMEOUT_S:g} s ({str(exc).splitlines()[0]})") from None
+        with client:
             yield client
         return
     with LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None,
@@ -96,16 +110,13 @@ def dask_client(jobs: int, address: str | None) -> Iterator[Any]:
         yield client
 
 
-def run_tasks(tasks: list[SampleTask], out: Path, jobs: int, address: str | None,
-              on_result: Callable[[dict[str, Any]], None]) -> None:
-    """Submit every task, record each result as it arrives; Ctrl-C (or SIGTERM) cancels what has not
-    finished and raises KeyboardInterrupt. The signal only sets a flag that the loop reads twice a second:
-    Dask's own waits may swallow a KeyboardInterrupt raised inside them."""
+def run_tasks(client: Any, tasks: list[SampleTask], out: Path, on_result: Callable[[dict[str, Any]], None]) -> None:
+    """Submit every task to the client's cluster, record each result as it arrives; Ctrl-C (or SIGTERM)
+    cancels what has not finished and raises KeyboardInterrupt. The signal only sets a flag that the loop
+    reads twice a second: Dask's own waits may swallow a KeyboardInterrupt raised inside them."""
     from dask.distributed import wait
 
-    if not tasks:
-        return
-    with dask_client(jobs, address) as client, _stop_requested() as stop:
+    with _stop_requested() as stop:
         pending = {client.submit(fly_sample, task, key=f"hil-sample-{out.name}-{task.index}-{time.time_ns()}",
                                  pure=False) for task in tasks}
         while pending:

@@ -16,12 +16,16 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 Scalar = float | int | str | bool
+MAX_SAMPLES = 100_000  # samples of one sweep, crossed values included: days of flights on a cluster
+MAX_INTEGER = 2**62  # `integers` draws with numpy's int64, its upper end inclusive
+Integer = Annotated[int, Field(ge=-MAX_INTEGER, le=MAX_INTEGER)]
 
 
 class _Model(BaseModel):
@@ -45,20 +49,31 @@ class Polar(_Model):
     """A horizontal NED vector from a speed and a compass direction (0 = north, 90 = east), each uniform
     in its interval; `down` fixed."""
 
-    speed: tuple[float, float]
+    speed: tuple[Annotated[float, Field(ge=0)], Annotated[float, Field(ge=0)]]
     direction_deg: tuple[float, float] = (0.0, 360.0)
     down: float = 0.0
+
+    @model_validator(mode="after")
+    def _low_to_high(self) -> Polar:
+        _check_interval(self.speed, "speed")
+        _check_interval(self.direction_deg, "direction_deg")
+        return self
+
+
+def _check_interval(interval: tuple[float, float], name: str) -> None:
+    if interval[0] > interval[1]:
+        raise ValueError(f"{name} [{interval[0]:g}, {interval[1]:g}] runs high to low; give it as [low, high]")
 
 
 class Dimension(_Model):
     """Exactly one of: values (a list), range, uniform, normal, integers (inclusive), choice, polar."""
 
-    values: list[Any] | None = None
+    values: Annotated[list[Any], Field(min_length=1)] | None = None
     range: Range | None = None
     uniform: tuple[float, float] | None = None
     normal: Normal | None = None
-    integers: tuple[int, int] | None = None
-    choice: list[Any] | None = None
+    integers: tuple[Integer, Integer] | None = None
+    choice: Annotated[list[Any], Field(min_length=1)] | None = None
     polar: Polar | None = None
 
     @model_validator(mode="before")
@@ -71,6 +86,10 @@ class Dimension(_Model):
         given = [k for k in type(self).model_fields if getattr(self, k) is not None]
         if len(given) != 1:
             raise ValueError(f"give exactly one of {', '.join(type(self).model_fields)} (found {given or 'none'})")
+        for name in ("uniform", "integers"):
+            interval = getattr(self, name)
+            if interval is not None:
+                _check_interval(interval, name)
         return self
 
     @property
@@ -81,6 +100,16 @@ class Dimension(_Model):
     def is_discrete(self) -> bool:
         """A grid can enumerate it."""
         return self.kind in ("values", "range", "choice")
+
+    @property
+    def listed(self) -> list[Any] | None:
+        """The values written out in the sweep file (a list or a choice), or None for a range or distribution."""
+        return self.values if self.values is not None else self.choice
+
+    @property
+    def count(self) -> int:
+        """How many values a grid enumerates."""
+        return self.range.num if self.range is not None else len(self.listed or [])
 
 
 PathKey = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*(\.[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*)*$")]
@@ -95,7 +124,9 @@ class SweepSpec(_Model):
     seed: int = Field(0, ge=0)
     overrides: dict[PathKey, Any] = Field(default_factory=dict)
     vary: dict[PathKey, Dimension] = Field(default_factory=dict)
-    cross: dict[PathKey, list[Any]] = Field(default_factory=dict)
+    cross: dict[PathKey, Annotated[list[Any], Field(min_length=1)]] = Field(default_factory=dict)
+    _source: Path | None = PrivateAttr(None)  # the sweep file, when it came from one
+    _lines: dict[str, int] = PrivateAttr(default_factory=dict)  # "vary.seed" -> its line in the sweep file
 
     @model_validator(mode="after")
     def _grid_is_enumerable(self) -> SweepSpec:
@@ -107,4 +138,26 @@ class SweepSpec(_Model):
         overlap = set(self.vary) & set(self.cross)
         if overlap:
             raise ValueError(f"{', '.join(sorted(overlap))} both varied and crossed")
+        if self.total > MAX_SAMPLES:
+            raise ValueError(f"{self.total:,} samples; a sweep has at most {MAX_SAMPLES:,} (split it, or sample "
+                             "it with design: random)")
         return self
+
+    def from_file(self, source: Path, lines: dict[str, int]) -> SweepSpec:
+        """This spec, remembering its file and the line of each key ("vary.seed") for the messages."""
+        located = self.model_copy()
+        located._source, located._lines = source, lines
+        return located
+
+    @property
+    def source(self) -> Path | None:
+        return self._source
+
+    def line(self, key: str) -> int | None:
+        return self._lines.get(key)
+
+    @property
+    def total(self) -> int:
+        """The number of samples, crossed values included."""
+        draws = math.prod(d.count for d in self.vary.values()) if self.design == "grid" else self.samples
+        return draws * math.prod(len(values) for values in self.cross.values())

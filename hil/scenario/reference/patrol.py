@@ -17,6 +17,7 @@ from hil.scenario.reference.waypoints import Waypoints
 from hil.sensors.geodesy import MAX_DISTANCE_M
 
 MAX_PASSES = 1000
+MIN_LINE_M = 1.0  # horizontal: the standoff side and the heading facing the line come from its direction
 
 
 class PatrolRef(ReferenceModel):
@@ -39,7 +40,15 @@ class PatrolRef(ReferenceModel):
                       self.dwell_s, self.passes)
 
     def problems(self, duration_s: float) -> Iterator[FieldProblem]:
-        """The flown ends (the line's, moved by the standoff and the altitude) within the bench's distances."""
+        """A line with a direction; the flown ends (the line's, moved by the standoff and the altitude) within the
+        bench's distances."""
+        start, end = self.line_start_ned, self.line_end_ned
+        length = math.hypot(end[0] - start[0], end[1] - start[1])
+        if length < MIN_LINE_M:
+            yield FieldProblem("line_end_ned", end, f"the line from {list(start)} to {list(end)} is {length:.3g} m "
+                               f"long horizontally; expected at least {MIN_LINE_M:g} m (its direction sets the "
+                               "standoff side and the heading)")
+            return
         ends = self.trajectory().as_waypoints.points_ned[:2]
         for field, end in zip(("line_start_ned", "line_end_ned"), ends, strict=True):
             if max(abs(v) for v in end) > MAX_DISTANCE_M:
