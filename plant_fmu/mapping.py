@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 import numpy as np
 import yaml
@@ -116,6 +116,15 @@ class RotorGeometry:
     @property
     def count(self) -> int:
         return len(self.ccw)
+
+    def px4_parameters(self, moment_coeff: float = 0.05) -> dict[str, float]:
+        """The geometry as PX4's control allocation reads it (CA_ROTOR_COUNT, CA_ROTORi_PX/PY/PZ in metres,
+        CA_ROTORi_KM positive for a CCW rotor), to set on a board whose airframe lacks this frame."""
+        params: dict[str, float] = {"CA_ROTOR_COUNT": float(self.count)}
+        for i, ((x, y, z), ccw) in enumerate(zip(self.positions_frd_m.tolist(), self.ccw, strict=True)):
+            params |= {f"CA_ROTOR{i}_PX": x, f"CA_ROTOR{i}_PY": y, f"CA_ROTOR{i}_PZ": z,
+                       f"CA_ROTOR{i}_KM": moment_coeff if ccw else -moment_coeff}
+        return params
 
 
 @dataclass(frozen=True)
@@ -235,7 +244,3 @@ def _rotor_problems(rotors: Rotors) -> list[tuple[str, str]]:
         found.append(("rotors.command_range", "the FMU's values for command 0 and 1 must differ"))
     return found
 
-
-def read_parameters(raw: Any) -> dict[str, float]:
-    """Parameter values as the FMU takes them (booleans as 0/1)."""
-    return {name: float(value) for name, value in dict(raw).items()}

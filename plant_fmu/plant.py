@@ -108,7 +108,11 @@ class Plant:
             raise PlantError(f"{what} failed at t = {self.t:.6f} s: {self._named(detail)}")
 
     def _initialize(self, parameters: MappingType[str, float], initial_inputs: np.ndarray | None) -> None:
-        values = {**self.resolved.mapping.spec.parameters, **parameters}
+        fixed = self.resolved.mapping.spec.parameters
+        clash = sorted(n for n in parameters if n in fixed and float(parameters[n]) != float(fixed[n]))
+        if clash:
+            raise PlantError(f"{', '.join(clash)} fixed by the plant mapping {self.resolved.mapping.source.name}")
+        values = {**fixed, **parameters}
         variables = self.resolved.variables
         unknown = sorted(n for n in values if n not in variables
                          or variables[n].causality not in (*PARAMETER_CAUSALITIES, "input"))

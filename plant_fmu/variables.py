@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from typing import Literal
 
 Causality = Literal["parameter", "input", "output"]
+FmiType = Literal["Real", "Integer", "Boolean"]
+MAX_ROTORS = 6  # hexa X; a quad X uses the first four of each per-rotor variable
 
 
 @dataclass(frozen=True)
@@ -21,7 +23,7 @@ class Variable:
     unit: str
     description: str
     start: float | None = None
-    boolean: bool = False
+    type: FmiType = "Real"
 
 
 def _p(name: str, start: float, unit: str, description: str) -> Variable:
@@ -32,18 +34,20 @@ def _u(name: str, start: float, unit: str, description: str) -> Variable:
     return Variable(name, "input", unit, description, start)
 
 
-def _y(name: str, unit: str, description: str, boolean: bool = False) -> Variable:
-    return Variable(name, "output", unit, description, boolean=boolean)
+def _y(name: str, unit: str, description: str, fmi_type: FmiType = "Real") -> Variable:
+    return Variable(name, "output", unit, description, type=fmi_type)
 
 
 # Defaults: a 1 kg inspection quad (arm 0.25 m, 4 x 5 N rotors) that hovers near
 # mid-throttle: T_hover = 9.80665/4 = 2.45 N per rotor -> u ≈ 0.61 with k = 0.5.
 PARAMETERS: tuple[Variable, ...] = (
+    Variable("rotor_count", "parameter", "", "4: PX4's quad X (airframe 4001), 6: PX4's hexa X (airframe 6001)", 4,
+             "Integer"),
     _p("mass", 1.0, "kg", "airframe mass without payload"),
     _p("Ixx", 0.011, "kg.m2", "inertia about body x (FRD)"),
     _p("Iyy", 0.011, "kg.m2", "inertia about body y (FRD)"),
     _p("Izz", 0.021, "kg.m2", "inertia about body z (FRD)"),
-    _p("arm_length", 0.25, "m", "centre of gravity to rotor axis (quad X, rotors at 45 deg)"),
+    _p("arm_length", 0.25, "m", "centre of gravity to rotor axis"),
     _p("thrust_max", 5.0, "N", "thrust of one rotor at command 1"),
     _p("thrust_curve_k", 0.5, "1", "T = T_max((1-k)u + k u^2), as PX4's THR_MDL_FAC"),
     _p("motor_tau", 0.02, "s", "rotor thrust first-order lag time constant (0 = ideal)"),
@@ -73,8 +77,8 @@ PARAMETERS: tuple[Variable, ...] = (
 )
 
 INPUTS: tuple[Variable, ...] = (
-    *(_u(f"motor_cmd_{i}", 0.0, "1", f"rotor {i} command 0..1 (PX4 quad X order)") for i in range(1, 5)),
-    *(_u(f"motor_health_{i}", 1.0, "1", f"rotor {i} thrust multiplier (1 = healthy)") for i in range(1, 5)),
+    *(_u(f"motor_cmd_{i}", 0.0, "1", f"rotor {i} command 0..1 (PX4's motor order)") for i in range(1, 7)),
+    *(_u(f"motor_health_{i}", 1.0, "1", f"rotor {i} thrust multiplier (1 = healthy)") for i in range(1, 7)),
     _u("wind_n", 0.0, "m/s", "wind velocity north"),
     _u("wind_e", 0.0, "m/s", "wind velocity east"),
     _u("wind_d", 0.0, "m/s", "wind velocity down"),
@@ -97,12 +101,12 @@ OUTPUTS: tuple[Variable, ...] = (
     _y("yaw", "rad", "ZYX Euler yaw"),
     *(_y(f"rate_{a}", "rad/s", f"body rate about {a} (FRD)") for a in "xyz"),
     *(_y(f"specific_force_{a}", "m/s2", f"accelerometer reading {a} (FRD)") for a in "xyz"),
-    *(_y(f"thrust_{i}", "N", f"rotor {i} thrust from the thrust curve and motor lag") for i in range(1, 5)),
-    *(_y(f"rotor_speed_{i}", "rad/s", f"rotor {i} speed, from its thrust: sqrt(T/k_eta)") for i in range(1, 5)),
+    *(_y(f"thrust_{i}", "N", f"rotor {i} thrust from the thrust curve and motor lag") for i in range(1, 7)),
+    *(_y(f"rotor_speed_{i}", "rad/s", f"rotor {i} speed, from its thrust: sqrt(T/k_eta)") for i in range(1, 7)),
     _y("thrust_total", "N", "sum of rotor thrusts"),
     *(_y(f"torque_{a}", "N.m", f"rotor torque about body {a} (FRD)") for a in "xyz"),
     _y("total_mass", "kg", "mass + payload"),
-    _y("on_ground", "", "resting on the ground plane", boolean=True),
+    _y("on_ground", "", "resting on the ground plane", "Boolean"),
 )
 
 VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS
