@@ -86,9 +86,8 @@ class StateReader:
         self._conversion = {p.port.name: (p.factor, _matrix(resolved, p.port.frame)) for p in real}
         self._attitude = _AttitudeReader(resolved)
         self.ground_d = math.inf  # set by `find_ground` when the plant starts at rest
-        plain = self._attitude.plain and all(
-            factor == 1.0 and matrix is None for factor, matrix in self._conversion.values()) and all(
-            name in self.slices for name in _PLAIN) and bool(self.boolean_vrs)
+        plain = self._attitude.plain and bool(self.boolean_vrs) and all(
+            name in self.slices and self._conversion[name] == (1.0, None) for name in _PLAIN)
         self._plain_slices = tuple(self.slices[n] if PORTS[n].size != 1 else self.slices[n].start
                                    for n in _PLAIN) if plain else None
         self._has_battery = "battery_voltage" in self.slices

@@ -12,6 +12,7 @@ from typing import Literal
 Causality = Literal["parameter", "input", "output"]
 FmiType = Literal["Real", "Integer", "Boolean"]
 MAX_ROTORS = 6  # hexa X; a quad X uses the first four of each per-rotor variable
+MAX_CELLS = 14  # MAVLink BATTERY_STATUS: 10 cell voltages and 4 more in voltages_ext
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,14 @@ PARAMETERS: tuple[Variable, ...] = (
     _p("init_pos_d", 0.0, "m", "initial down position"),
     _p("init_yaw", 0.0, "rad", "initial heading"),
     _p("integration_step", 0.001, "s", "fixed RK4 step inside each doStep"),
+    # Battery (docs/plant.md): LiPo cells in series, Chen and Rincon-Mora's open-circuit voltage curve, a
+    # series resistance; current from the rotors' shaft power k_m T w over an efficiency, plus a base load.
+    Variable("battery_cells", "parameter", "", f"cells in series, 1..{MAX_CELLS}", 4, "Integer"),
+    _p("battery_capacity", 5.0, "A.h", "charge of the full pack"),
+    _p("battery_initial_soc", 1.0, "1", "state of charge at the start, 0..1"),
+    _p("battery_cell_resistance", 0.012, "Ohm", "series resistance of one cell"),
+    _p("battery_efficiency", 0.7, "1", "rotor shaft power over electrical power (motors and controllers)"),
+    _p("battery_base_current", 0.0, "A", "current drawn besides the rotors (avionics, payload)"),
 )
 
 INPUTS: tuple[Variable, ...] = (
@@ -89,6 +98,9 @@ INPUTS: tuple[Variable, ...] = (
     _u("tau_dist_y", 0.0, "N.m", "disturbance torque about body y (FRD)"),
     _u("tau_dist_z", 0.0, "N.m", "disturbance torque about body z (FRD)"),
     _u("payload_mass", 0.0, "kg", "payload at the centre of gravity"),
+    _u("battery_fault_cell", 0.0, "1", "the failing cell, 1..battery_cells (0: none)"),
+    _u("battery_fault_resistance", 0.0, "Ohm", "series resistance the failing cell gains"),
+    _u("battery_fault_voltage", 0.0, "V", "open-circuit voltage the failing cell loses"),
 )
 
 OUTPUTS: tuple[Variable, ...] = (
@@ -107,6 +119,11 @@ OUTPUTS: tuple[Variable, ...] = (
     *(_y(f"torque_{a}", "N.m", f"rotor torque about body {a} (FRD)") for a in "xyz"),
     _y("total_mass", "kg", "mass + payload"),
     _y("on_ground", "", "resting on the ground plane", "Boolean"),
+    _y("battery_voltage", "V", "pack voltage at the terminals"),
+    _y("battery_current", "A", "pack current, positive discharging"),
+    _y("battery_consumed", "A.h", "charge drawn since the start"),
+    _y("battery_remaining", "1", "state of charge, 1 full .. 0 empty"),
+    *(_y(f"cell_voltage_{i}", "V", f"cell {i} at the terminals (0 beyond battery_cells)") for i in range(1, 15)),
 )
 
 VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS

@@ -5,7 +5,8 @@
  * into NED (as PX4). Value references and defaults come from quadrotor_vars.h,
  * which is generated together with modelDescription.xml from plant_fmu/variables.py.
  *
- * State x: pos_ned[3], vel_ned[3], q[4], omega_frd[3], rotor thrust[MAX_ROTORS] (the unused ones stay 0).
+ * State x: pos_ned[3], vel_ned[3], q[4], omega_frd[3], rotor thrust[MAX_ROTORS] (the unused ones stay 0),
+ * battery charge drawn (C).
  * Each doStep integrates with fixed-step RK4 (parameter integration_step), the
  * last sub-step shortened to land exactly on the communication point.
  */
@@ -19,7 +20,9 @@
 #include "quadrotor_vars.h"
 
 #define MAX_ROTORS 6
-#define NX (13 + MAX_ROTORS)
+#define MAX_CELLS 14
+#define X_CHARGE (13 + MAX_ROTORS)
+#define NX (X_CHARGE + 1)
 #define X_POS 0
 #define X_VEL 3
 #define X_Q 6
@@ -198,6 +201,73 @@ static void body_wrench(const Model *m, const double *x, double R[3][3], double 
     }
 }
 
+/* ---- Battery: N LiPo cells in series with a series resistance each, discharged by the rotors' shaft power
+ * over an efficiency and a base current. Nothing of it acts back on the flight. ---- */
+
+/* Open-circuit voltage of one lithium-ion polymer cell against state of charge: M. Chen and G. A.
+ * Rincon-Mora, "Accurate electrical battery model capable of predicting runtime and I-V performance",
+ * IEEE Trans. Energy Conversion 21(2), 2006, eq. for V_oc(SOC) (4.10 V full, 2.65 V empty). */
+static double cell_ocv(double soc) {
+    double s = clamp(soc, 0.0, 1.0);
+    return -1.031 * exp(-35.0 * s) + 3.685 + 0.2156 * s - 0.1178 * s * s + 0.3201 * s * s * s;
+}
+
+static int cell_count(const Model *m) { return (int)P(m, battery_cells); }
+
+/* The failing cell, 1..N, or 0. */
+static int fault_cell(const Model *m) {
+    int k = (int)lround(m->r[VR_battery_fault_cell]);
+    return k >= 1 && k <= cell_count(m) ? k : 0;
+}
+
+static double state_of_charge(const Model *m, double charge_c) {
+    return P(m, battery_initial_soc) - charge_c / (3600.0 * P(m, battery_capacity));
+}
+
+static double pack_ocv(const Model *m, double soc) {
+    return cell_count(m) * cell_ocv(soc) - (fault_cell(m) ? m->r[VR_battery_fault_voltage] : 0.0);
+}
+
+static double pack_resistance(const Model *m) {
+    return cell_count(m) * P(m, battery_cell_resistance) + (fault_cell(m) ? m->r[VR_battery_fault_resistance] : 0.0);
+}
+
+/* Shaft power of the rotors: drag torque k_m |T| times speed w (rotor_speed). */
+static double rotor_power(const Model *m, const double *thrust) {
+    double power = 0;
+    for (int i = 0; i < rotor_count(m); i++)
+        power += P(m, yaw_moment_coeff) * fabs(thrust[i]) * fabs(rotor_speed(m, thrust[i]));
+    return power;
+}
+
+/* Pack current I drawing the rotors' electrical power P = P_shaft / efficiency at the terminal voltage
+ * V = V_oc - R I besides the base current I_b: (I - I_b)(V_oc - R I) = P, the smaller root; past the
+ * pack's maximum power the current stays at that point. */
+static double battery_current(const Model *m, const double *x) {
+    double v_oc = pack_ocv(m, state_of_charge(m, x[X_CHARGE])), r = pack_resistance(m);
+    double i_b = P(m, battery_base_current), p = rotor_power(m, x + X_T) / P(m, battery_efficiency);
+    if (r <= 0) return i_b + (v_oc > 0 ? p / v_oc : 0);
+    double b = v_oc + r * i_b, disc = b * b - 4 * r * (v_oc * i_b + p);
+    return (b - sqrt(disc > 0 ? disc : 0)) / (2 * r);
+}
+
+static void battery_outputs(Model *m, const double *x) {
+    double current = battery_current(m, x), soc = state_of_charge(m, x[X_CHARGE]);
+    int fault = fault_cell(m);
+    m->r[VR_battery_current] = current;
+    m->r[VR_battery_voltage] = pack_ocv(m, soc) - current * pack_resistance(m);
+    m->r[VR_battery_consumed] = x[X_CHARGE] / 3600.0;
+    m->r[VR_battery_remaining] = soc > 0 ? soc : 0;
+    for (int k = 1; k <= MAX_CELLS; k++) {
+        double v = 0;
+        if (k <= cell_count(m)) {
+            v = cell_ocv(soc) - current * P(m, battery_cell_resistance);
+            if (k == fault) v -= m->r[VR_battery_fault_voltage] + current * m->r[VR_battery_fault_resistance];
+        }
+        m->r[VR_cell_voltage_1 + k - 1] = v;
+    }
+}
+
 /* Translational acceleration in NED from the body-frame force f_b (plus disturbance and gravity). */
 static void accel_from_force(const Model *m, double R[3][3], const double f_b[3], double acc[3]) {
     double mass = total_mass(m);
@@ -228,6 +298,7 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
 
     for (int i = 0; i < MAX_ROTORS; i++)
         dx[X_T + i] = tau_m > 0 && i < rotor_count(m) ? (thrust_command(m, i) - thrust[i]) / tau_m : 0;
+    dx[X_CHARGE] = battery_current(m, x);
     if (contact) {
         memset(dx, 0, sizeof(double) * X_T);
         return;
@@ -340,6 +411,7 @@ static void update_outputs(Model *m) {
     m->r[VR_total_mass] = total_mass(m);
     m->r[VR_on_ground] = contact ? 1.0 : 0.0;
     m->contact = contact;
+    battery_outputs(m, x);
 }
 
 static void initialize_state(Model *m) {
@@ -375,6 +447,13 @@ static int parameters_valid(Model *m) {
     }
     if (!(rotor_count(m) == 4 || rotor_count(m) == 6)) {
         log_msg(m, fmi2Error, "logStatusError", "rotor_count must be 4 (quad X) or 6 (hexa X)");
+        return 0;
+    }
+    if (!(cell_count(m) >= 1 && cell_count(m) <= MAX_CELLS && P(m, battery_capacity) > 0 &&
+          P(m, battery_initial_soc) >= 0 && P(m, battery_initial_soc) <= 1 && P(m, battery_cell_resistance) >= 0 &&
+          P(m, battery_efficiency) > 0 && P(m, battery_efficiency) <= 1 && P(m, battery_base_current) >= 0)) {
+        log_msg(m, fmi2Error, "logStatusError", "battery: cells 1..14, capacity > 0, initial soc 0..1, "
+                "resistance >= 0, efficiency in (0, 1], base current >= 0");
         return 0;
     }
     if (!(P(m, rotor_speed_max) > 0 && P(m, air_density) >= 0)) {
