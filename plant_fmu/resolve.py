@@ -59,6 +59,9 @@ def resolve(mapping: Mapping, fmu_path: Path) -> ResolvedMapping:
         description = read_model_description(str(fmu_path))
     except Exception as exc:  # fmpy raises plain exceptions for a missing or broken file
         raise MappingError([problem(source, "fmu", f"cannot read {fmu_path}: {exc}")]) from None
+    if description.fmiVersion[0] not in "23":
+        raise MappingError([problem(source, "fmu", f"{fmu_path.name} is FMI {description.fmiVersion}: the bench "
+                                                   "steps FMI 2.0 and 3.0 co-simulation FMUs")])
     if description.coSimulation is None:
         raise MappingError([problem(source, "fmu", f"{fmu_path.name} has no co-simulation interface")])
     variables = {v.name: v for v in description.modelVariables}

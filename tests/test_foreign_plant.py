@@ -33,12 +33,13 @@ def foreign_mapping(tmp_path_factory) -> Path:
     return out / "enu_quadrotor.yaml"
 
 
-def fly(plant: Plant, schedule: list[tuple[float, tuple[float, ...]]]) -> list[PlantState]:
-    """Rotor commands (PX4's order) held for each duration; the state every 0.1 s."""
+def fly(plant: Plant, schedule: list[tuple[float, tuple[float, ...]]],
+        wind_ned: tuple[float, float, float] = (1.0, -0.5, 0.0)) -> list[PlantState]:
+    """Rotor commands (PX4's order) held for each duration in a steady wind; the state every 0.1 s."""
     states = []
     for seconds, commands in schedule:
         for k in range(round(seconds / 0.004)):
-            plant.set_input_groups(commands, (1.0,) * 4, np.array((1.0, -0.5, 0.0)), Z, Z, 0.0)
+            plant.set_input_groups(commands, (1.0,) * 4, np.array(wind_ned), Z, Z, 0.0)
             plant.step(0.004)
             if (k + 1) % 25 == 0:
                 states.append(plant.state())
@@ -120,3 +121,29 @@ def test_its_four_rotors_against_a_hexa_airframe_is_one_line(foreign_mapping):
     assert caught.value.lines == (f"{foreign_mapping}: rotors.list: 4 rotors mapped, the board's airframe hexa_x "
                                   "has 6",)
     check_rotor_count(check_plant(foreign_mapping), 4, "quad_x")
+
+
+@pytest.fixture(scope="session")
+def fmi3_mapping(tmp_path_factory) -> Path:
+    """An FMI 3.0 co-simulation FMU built by pythonfmu3, with its mapping beside it."""
+    from pythonfmu3.builder import FmuBuilder
+
+    out = tmp_path_factory.mktemp("fmi3_plant")
+    FmuBuilder.build_FMU(SOURCE / "vertical_lift_fmi3.py", dest=out)
+    shutil.copy(SOURCE / "vertical_lift_fmi3.yaml", out)
+    return out / "vertical_lift_fmi3.yaml"
+
+
+def test_an_fmi3_plant_steps_through_its_mapping(fmi3_mapping):
+    """fmpy's FMI 3.0 calls (fmi3SetFloat64, fmi3DoStep, fmi3GetFloat64) on the plant's hot path: four rotors
+    at 0.6 lift 1 kg with 12 N, so after 1 s it is (12/1 - g)/2 m up, exactly (constant acceleration)."""
+    check_plant(fmi3_mapping)
+    with Plant(mapping=fmi3_mapping) as plant:
+        assert plant.resolved.fmi_version == "3.0"
+        fly(plant, [(1.0, (0.6,) * 4)], wind_ned=(0.0, 0.0, 0.0))  # it has no wind input
+        state = plant.state()
+    assert state.pos_ned == pytest.approx((0.0, 0.0, -(12.0 - 9.80665) / 2), abs=1e-9)
+    assert state.vel_ned == pytest.approx((0.0, 0.0, -(12.0 - 9.80665)), abs=1e-9)
+    assert state.specific_force_frd == pytest.approx((0.0, 0.0, -12.0), abs=1e-12)
+    assert state.q_wxyz == pytest.approx((math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)), abs=1e-12)  # nose east
+    assert math.isnan(state.thrust_total_n) and state.battery is None  # not mapped: not invented
