@@ -90,7 +90,12 @@ class StateReader:
             name in self.slices and self._conversion[name] == (1.0, None) for name in _PLAIN)
         self._plain_slices = tuple(self.slices[n] if PORTS[n].size != 1 else self.slices[n].start
                                    for n in _PLAIN) if plain else None
-        self._has_battery = "battery_voltage" in self.slices
+        battery = ("battery_voltage", "battery_current", "battery_consumed", "battery_remaining")
+        self._has_battery = all(name in self.slices for name in battery)
+        self._battery_at = tuple((self.slices[n].start, self._conversion[n][0]) for n in battery
+                                 ) if self._has_battery else ()
+        self._cells = self.slices.get("cell_voltages", slice(0, 0))
+        self._cells_plain = "cell_voltages" not in self.slices or self._conversion["cell_voltages"] == (1.0, None)
 
     def _get(self, o: np.ndarray, port: str, default: np.ndarray | None = None) -> np.ndarray:
         if port not in self.slices:
@@ -123,9 +128,9 @@ class StateReader:
                           self._scalar(o, "total_mass"), grounded, self._battery(o) if self._has_battery else None)
 
     def _battery(self, o: np.ndarray) -> BatteryState:
-        cells = self._get(o, "cell_voltages") if "cell_voltages" in self.slices else np.empty(0)
-        return BatteryState(self._scalar(o, "battery_voltage"), self._scalar(o, "battery_current"),
-                            self._scalar(o, "battery_consumed"), self._scalar(o, "battery_remaining"), cells)
+        (v, fv), (i, fi), (c, fc), (r, fr) = self._battery_at
+        cells = o[self._cells] if self._cells_plain else self._get(o, "cell_voltages")
+        return BatteryState(float(o[v]) * fv, float(o[i]) * fi, float(o[c]) * fc, float(o[r]) * fr, cells)
 
     def find_ground(self, state: PlantState) -> None:
         """A plant that starts resting (the accelerometer reads g, nothing moves) is on its ground."""

@@ -52,7 +52,8 @@ def test_the_hexa_hovers_on_six_equal_commands_from_the_closed_form():
     """u from T = mg/6 = T_max((1-k)u + ku^2): the vehicle holds its place, torques cancel."""
     t_each, k = DEFAULTS["mass"] * DEFAULTS["g"] / 6, DEFAULTS["thrust_curve_k"]
     u = (-(1 - k) + math.sqrt((1 - k) ** 2 + 4 * k * t_each / DEFAULTS["thrust_max"])) / (2 * k)
-    with Plant({"init_pos_d": -10.0}, mapping=HEXA, initial_inputs=np.r_[[u] * 6, [1.0] * 6, np.zeros(10)]) as plant:
+    trim = {**{f"motor_cmd_{i}": u for i in range(1, 7)}, **{f"motor_health_{i}": 1.0 for i in range(1, 7)}}
+    with Plant({"init_pos_d": -10.0, **trim}, mapping=HEXA) as plant:  # inputs before initialisation: in trim
         for _ in range(500):
             plant.set_input_groups((u,) * 6, (1.0,) * 6, Z, Z, Z, 0.0)
             plant.step(0.004)

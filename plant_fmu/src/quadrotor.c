@@ -253,6 +253,7 @@ static double battery_current(const Model *m, const double *x) {
 
 static void battery_outputs(Model *m, const double *x) {
     double current = battery_current(m, x), soc = state_of_charge(m, x[X_CHARGE]);
+    double healthy = cell_ocv(soc) - current * P(m, battery_cell_resistance);
     int fault = fault_cell(m);
     m->r[VR_battery_current] = current;
     m->r[VR_battery_voltage] = pack_ocv(m, soc) - current * pack_resistance(m);
@@ -261,7 +262,7 @@ static void battery_outputs(Model *m, const double *x) {
     for (int k = 1; k <= MAX_CELLS; k++) {
         double v = 0;
         if (k <= cell_count(m)) {
-            v = cell_ocv(soc) - current * P(m, battery_cell_resistance);
+            v = healthy;
             if (k == fault) v -= m->r[VR_battery_fault_voltage] + current * m->r[VR_battery_fault_resistance];
         }
         m->r[VR_cell_voltage_1 + k - 1] = v;
