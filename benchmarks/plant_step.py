@@ -17,7 +17,6 @@ from run_timing import benchmark_parser
 
 from hil.scenario.vehicles import INSPECTION_QUAD_AERO
 from plant_fmu import Plant, ensure_fmu
-from plant_fmu.variables import INPUT_NAMES, OUTPUTS, VR
 
 STEPS, QUICK_STEPS = 20_000, 250
 DT = 0.004
@@ -25,7 +24,7 @@ DT = 0.004
 
 def bench_plant(parameters: dict[str, float], steps: int) -> float:
     with Plant({"init_pos_d": -1e6, **parameters}) as plant:
-        u = np.zeros(len(plant.INPUT_NAMES))
+        u = np.zeros(len(plant.input_names))
         u[[plant.input_index[f"motor_cmd_{i}"] for i in range(1, 5)]] = 0.61
         u[[plant.input_index[f"motor_health_{i}"] for i in range(1, 5)]] = 1.0
         u[plant.input_index["wind_e"]] = 4.0
@@ -45,8 +44,10 @@ def bench_fmpy_high_level(steps: int) -> float:
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     fmu.exitInitializationMode()
-    in_vr = [VR[n] for n in INPUT_NAMES]
-    out_vr = [VR[v.name] for v in OUTPUTS if not v.boolean]
+    vr = {v.name: v.valueReference for v in description.modelVariables}
+    with Plant() as plant:  # the same variables as the plant's hot path, by the default mapping's names
+        in_vr = [vr[n] for n in plant.input_names]
+        out_vr = [vr[n] for n in plant.output_names]
     values = [0.61] * 4 + [1.0] * 4 + [0.0] * (len(in_vr) - 8)
     t = 0.0
     start = time.perf_counter()

@@ -85,13 +85,16 @@ def render_header(guid: str) -> str:
     lines.append(f"static const double VAR_START[NVARS] = {{{starts}}};")
     kinds = ", ".join(causality[v.causality] for v in VARIABLES)
     lines.append(f"static const int VAR_CAUSALITY[NVARS] = {{{kinds}}};")
+    lines.append("enum { TYPE_REAL, TYPE_INTEGER, TYPE_BOOLEAN };")
+    types = ", ".join(f"TYPE_{v.type.upper()}" for v in VARIABLES)
+    lines.append(f"static const int VAR_TYPE[NVARS] = {{{types}}};")
     lines.append("#endif")
     return "\n".join(lines) + "\n"
 
 
 def _scalar_variable(vr: int, v: Variable) -> str:
     variability = {"parameter": "fixed", "input": "continuous", "output": "continuous"}[v.causality]
-    if v.boolean:
+    if v.type != "Real" and v.causality != "parameter":
         variability = "discrete"
     attrs = (
         f"name={quoteattr(v.name)} valueReference=\"{vr}\" causality=\"{v.causality}\" "
@@ -99,15 +102,17 @@ def _scalar_variable(vr: int, v: Variable) -> str:
     )
     if v.causality == "parameter":
         attrs += ' initial="exact"'
-    if v.boolean:
+    if v.type == "Boolean":
         return f"    <ScalarVariable {attrs}>\n      <Boolean/>\n    </ScalarVariable>"
+    if v.type == "Integer":
+        return f"    <ScalarVariable {attrs}>\n      <Integer start=\"{round(v.start or 0)}\"/>\n    </ScalarVariable>"
     start = f' start="{float(v.start)!r}"' if v.start is not None else ""
     unit = f" unit={quoteattr(v.unit)}" if v.unit else ""
     return f"    <ScalarVariable {attrs}>\n      <Real{unit}{start}/>\n    </ScalarVariable>"
 
 
 def render_model_description(guid: str) -> str:
-    units = sorted({v.unit for v in VARIABLES if v.unit and not v.boolean})
+    units = sorted({v.unit for v in VARIABLES if v.unit and v.type == "Real"})
     unit_defs = "\n".join(f"    <Unit name={quoteattr(u)}/>" for u in units)
     variables = "\n".join(_scalar_variable(i, v) for i, v in enumerate(VARIABLES))
     outputs = [i + 1 for i, v in enumerate(VARIABLES) if v.causality == "output"]
@@ -118,7 +123,7 @@ def render_model_description(guid: str) -> str:
   fmiVersion="2.0"
   modelName="Quadrotor"
   guid="{guid}"
-  description="6-DOF quadrotor (PX4 quad X, NED/FRD) with rotor lag, drag against wind, ground contact and payload"
+  description="6-DOF multirotor (PX4 quad X or hexa X, NED/FRD): rotor lag, drag against wind, ground, payload"
   generationTool="hil-bench plant_fmu.build"
   variableNamingConvention="flat"
   numberOfEventIndicators="0">

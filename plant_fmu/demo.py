@@ -18,7 +18,7 @@ def fly_hover(seconds: float, altitude_m: float = 2.0, dt_s: float = 0.004) -> l
     t_max, k = DEFAULTS["thrust_max"], DEFAULTS["thrust_curve_k"]
     rows: list[tuple[float, float, float]] = []
     with Plant() as plant:
-        inputs = np.zeros(len(plant.INPUT_NAMES))
+        inputs = np.zeros(len(plant.input_names))
         health = [plant.input_index[f"motor_health_{i}"] for i in range(1, 5)]
         cmds = [plant.input_index[f"motor_cmd_{i}"] for i in range(1, 5)]
         inputs[health] = 1.0

@@ -10,6 +10,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 Causality = Literal["parameter", "input", "output"]
+FmiType = Literal["Real", "Integer", "Boolean"]
+MAX_ROTORS = 6  # hexa X; a quad X uses the first four of each per-rotor variable
+MAX_CELLS = 14  # MAVLink BATTERY_STATUS: 10 cell voltages and 4 more in voltages_ext
 
 
 @dataclass(frozen=True)
@@ -21,7 +24,7 @@ class Variable:
     unit: str
     description: str
     start: float | None = None
-    boolean: bool = False
+    type: FmiType = "Real"
 
 
 def _p(name: str, start: float, unit: str, description: str) -> Variable:
@@ -32,18 +35,20 @@ def _u(name: str, start: float, unit: str, description: str) -> Variable:
     return Variable(name, "input", unit, description, start)
 
 
-def _y(name: str, unit: str, description: str, boolean: bool = False) -> Variable:
-    return Variable(name, "output", unit, description, boolean=boolean)
+def _y(name: str, unit: str, description: str, fmi_type: FmiType = "Real") -> Variable:
+    return Variable(name, "output", unit, description, type=fmi_type)
 
 
 # Defaults: a 1 kg inspection quad (arm 0.25 m, 4 x 5 N rotors) that hovers near
 # mid-throttle: T_hover = 9.80665/4 = 2.45 N per rotor -> u ≈ 0.61 with k = 0.5.
 PARAMETERS: tuple[Variable, ...] = (
+    Variable("rotor_count", "parameter", "", "4: PX4's quad X (airframe 4001), 6: PX4's hexa X (airframe 6001)", 4,
+             "Integer"),
     _p("mass", 1.0, "kg", "airframe mass without payload"),
     _p("Ixx", 0.011, "kg.m2", "inertia about body x (FRD)"),
     _p("Iyy", 0.011, "kg.m2", "inertia about body y (FRD)"),
     _p("Izz", 0.021, "kg.m2", "inertia about body z (FRD)"),
-    _p("arm_length", 0.25, "m", "centre of gravity to rotor axis (quad X, rotors at 45 deg)"),
+    _p("arm_length", 0.25, "m", "centre of gravity to rotor axis"),
     _p("thrust_max", 5.0, "N", "thrust of one rotor at command 1"),
     _p("thrust_curve_k", 0.5, "1", "T = T_max((1-k)u + k u^2), as PX4's THR_MDL_FAC"),
     _p("motor_tau", 0.02, "s", "rotor thrust first-order lag time constant (0 = ideal)"),
@@ -70,11 +75,19 @@ PARAMETERS: tuple[Variable, ...] = (
     _p("init_pos_d", 0.0, "m", "initial down position"),
     _p("init_yaw", 0.0, "rad", "initial heading"),
     _p("integration_step", 0.001, "s", "fixed RK4 step inside each doStep"),
+    # Battery (docs/plant.md): LiPo cells in series, Chen and Rincon-Mora's open-circuit voltage curve, a
+    # series resistance; current from the rotors' shaft power k_m T w over an efficiency, plus a base load.
+    Variable("battery_cells", "parameter", "", f"cells in series, 1..{MAX_CELLS}", 4, "Integer"),
+    _p("battery_capacity", 5.0, "A.h", "charge of the full pack"),
+    _p("battery_initial_soc", 1.0, "1", "state of charge at the start, 0..1"),
+    _p("battery_cell_resistance", 0.012, "Ohm", "series resistance of one cell"),
+    _p("battery_efficiency", 0.7, "1", "rotor shaft power over electrical power (motors and controllers)"),
+    _p("battery_base_current", 0.0, "A", "current drawn besides the rotors (avionics, payload)"),
 )
 
 INPUTS: tuple[Variable, ...] = (
-    *(_u(f"motor_cmd_{i}", 0.0, "1", f"rotor {i} command 0..1 (PX4 quad X order)") for i in range(1, 5)),
-    *(_u(f"motor_health_{i}", 1.0, "1", f"rotor {i} thrust multiplier (1 = healthy)") for i in range(1, 5)),
+    *(_u(f"motor_cmd_{i}", 0.0, "1", f"rotor {i} command 0..1 (PX4's motor order)") for i in range(1, 7)),
+    *(_u(f"motor_health_{i}", 1.0, "1", f"rotor {i} thrust multiplier (1 = healthy)") for i in range(1, 7)),
     _u("wind_n", 0.0, "m/s", "wind velocity north"),
     _u("wind_e", 0.0, "m/s", "wind velocity east"),
     _u("wind_d", 0.0, "m/s", "wind velocity down"),
@@ -85,6 +98,9 @@ INPUTS: tuple[Variable, ...] = (
     _u("tau_dist_y", 0.0, "N.m", "disturbance torque about body y (FRD)"),
     _u("tau_dist_z", 0.0, "N.m", "disturbance torque about body z (FRD)"),
     _u("payload_mass", 0.0, "kg", "payload at the centre of gravity"),
+    _u("battery_fault_cell", 0.0, "1", "the failing cell, 1..battery_cells (0: none)"),
+    _u("battery_fault_resistance", 0.0, "Ohm", "series resistance the failing cell gains"),
+    _u("battery_fault_voltage", 0.0, "V", "open-circuit voltage the failing cell loses"),
 )
 
 OUTPUTS: tuple[Variable, ...] = (
@@ -97,12 +113,17 @@ OUTPUTS: tuple[Variable, ...] = (
     _y("yaw", "rad", "ZYX Euler yaw"),
     *(_y(f"rate_{a}", "rad/s", f"body rate about {a} (FRD)") for a in "xyz"),
     *(_y(f"specific_force_{a}", "m/s2", f"accelerometer reading {a} (FRD)") for a in "xyz"),
-    *(_y(f"thrust_{i}", "N", f"rotor {i} thrust from the thrust curve and motor lag") for i in range(1, 5)),
-    *(_y(f"rotor_speed_{i}", "rad/s", f"rotor {i} speed, from its thrust: sqrt(T/k_eta)") for i in range(1, 5)),
+    *(_y(f"thrust_{i}", "N", f"rotor {i} thrust from the thrust curve and motor lag") for i in range(1, 7)),
+    *(_y(f"rotor_speed_{i}", "rad/s", f"rotor {i} speed, from its thrust: sqrt(T/k_eta)") for i in range(1, 7)),
     _y("thrust_total", "N", "sum of rotor thrusts"),
     *(_y(f"torque_{a}", "N.m", f"rotor torque about body {a} (FRD)") for a in "xyz"),
     _y("total_mass", "kg", "mass + payload"),
-    _y("on_ground", "", "resting on the ground plane", boolean=True),
+    _y("on_ground", "", "resting on the ground plane", "Boolean"),
+    _y("battery_voltage", "V", "pack voltage at the terminals"),
+    _y("battery_current", "A", "pack current, positive discharging"),
+    _y("battery_consumed", "A.h", "charge drawn since the start"),
+    _y("battery_remaining", "1", "state of charge, 1 full .. 0 empty"),
+    *(_y(f"cell_voltage_{i}", "V", f"cell {i} at the terminals (0 beyond battery_cells)") for i in range(1, 15)),
 )
 
 VARIABLES: tuple[Variable, ...] = PARAMETERS + INPUTS + OUTPUTS

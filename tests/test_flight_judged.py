@@ -56,8 +56,8 @@ def test_a_dead_rotor_tumbles_the_vehicle_and_the_run_says_when(tmp_path):
 
 def test_a_non_finite_input_names_its_variable():
     with Plant() as plant:
-        inputs = [0.0] * len(Plant.INPUT_NAMES)
-        inputs[Plant.INPUT_NAMES.index("f_dist_e")] = math.nan
+        inputs = [0.0] * len(plant.input_names)
+        inputs[plant.input_names.index("f_dist_e")] = math.nan
         with pytest.raises(PlantError, match="variable f_dist_e"):
             plant.set_inputs(inputs)
             plant.step(0.004)

@@ -14,21 +14,18 @@ from hil.judge.metrics import MetricsCollector
 from hil.loop.frame import StepFrame
 from hil.scenario.environment import EnvironmentSample
 from hil.scenario.reference import RefSample
-from plant_fmu.plant import Plant
 from plant_fmu.state import PlantState
 
-OUT = {name: i for i, name in enumerate(Plant.OUTPUT_NAMES)}
 REF = RefSample(np.array((0.0, 0.0, -5.0)), np.zeros(3), np.zeros(3), 0.0)
 
 
 def frame(t: float, pos=(0.0, 0.0, -5.0), rpy=(0.0, 0.0, 0.0), phase="mission", mass=1.0,
           board=()) -> StepFrame:
-    outputs = np.zeros(len(Plant.OUTPUT_NAMES))
-    outputs[[OUT["pos_n"], OUT["pos_e"], OUT["pos_d"]]] = pos
-    outputs[[OUT["roll"], OUT["pitch"], OUT["yaw"]]] = rpy
-    outputs[OUT["total_mass"]] = mass
+    zero3, zero4 = np.zeros(3), np.zeros(4)
+    state = PlantState(np.array(pos, dtype=float), zero3, zero3, np.array((1.0, 0.0, 0.0, 0.0)),
+                       np.array(rpy, dtype=float), zero3, zero3, zero4, zero4, zero3, 0.0, mass, False)
     env = EnvironmentSample(np.zeros(3), np.zeros(3), np.zeros(3), 0.0, (1.0, 1.0, 1.0, 1.0))
-    return StepFrame(round(t * 1e6), t, phase, PlantState.from_outputs(outputs, False), REF,
+    return StepFrame(round(t * 1e6), t, phase, state, REF,
                      SensorReadings(round(t * 1e6)), None, (0.5,) * 4, True, env, list(board), step_wall_s=1e-4,
                      round_trip_s=5e-5)
 

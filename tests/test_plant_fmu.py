@@ -88,7 +88,7 @@ def test_the_c_host_and_fmpy_give_the_same_flight_with_rotor_aerodynamics(fmu_pa
     inputs = {**{f"motor_cmd_{i}": 0.65 + 0.01 * i for i in range(1, 5)},
               **{f"motor_health_{i}": 1.0 for i in range(1, 5)}, "wind_e": 4.0, "wind_d": -1.0}
     with Plant(INSPECTION_QUAD_AERO) as plant:
-        u = np.zeros(len(plant.INPUT_NAMES))
+        u = np.zeros(len(plant.input_names))
         for name, value in inputs.items():
             u[plant.input_index[name]] = value
         plant.set_inputs(u)
@@ -153,7 +153,7 @@ def test_a_plant_that_fails_while_initialising_leaves_no_unpacked_fmu(fmu_path, 
     monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     with pytest.raises(PlantError, match="no_such_parameter"):
         Plant({"no_such_parameter": 1.0}, fmu_path=fmu_path)
-    assert not list(tmp_path.glob("quadrotor-*"))
+    assert not list(tmp_path.glob("plant-fmu-*"))
     with Plant(fmu_path=fmu_path):
-        assert len(list(tmp_path.glob("quadrotor-*"))) == 1  # the same place, so the check above can see it
-    assert not list(tmp_path.glob("quadrotor-*"))
+        assert len(list(tmp_path.glob("plant-fmu-*"))) == 1  # the same place, so the check above can see it
+    assert not list(tmp_path.glob("plant-fmu-*"))

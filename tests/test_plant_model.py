@@ -47,7 +47,7 @@ TUMBLE = {"Ixx": IXX, "Iyy": IYY, "Izz": IZZ * 1.3, "arm_length": 0.5, "init_pos
 
 
 def tumbling_inputs(plant: Plant, t: float) -> np.ndarray:
-    u = np.zeros(len(plant.INPUT_NAMES))
+    u = np.zeros(len(plant.input_names))
     for i in range(1, 5):
         u[plant.input_index[f"motor_health_{i}"]] = 1.0
     u[plant.input_index["tau_dist_x"]] = 0.6 * np.sin(2.0 * t) + 0.3

@@ -19,7 +19,7 @@ def hover_u(mass: float, thrust_max: float = 5.0, k: float = 0.5) -> float:
 
 
 def inputs(plant: Plant, motors: list[float], **named: float) -> np.ndarray:
-    u = np.zeros(len(plant.INPUT_NAMES))
+    u = np.zeros(len(plant.input_names))
     for i in range(4):
         u[plant.input_index[f"motor_cmd_{i + 1}"]] = motors[i]
         u[plant.input_index[f"motor_health_{i + 1}"]] = 1.0

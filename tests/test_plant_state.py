@@ -6,13 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from plant_fmu import Plant, PlantState
+from plant_fmu import Plant
 
 
-def test_each_field_holds_the_outputs_of_its_names():
-    outputs = np.arange(len(Plant.OUTPUT_NAMES), dtype=float)
-    state = PlantState.from_outputs(outputs, True)
-    index = {name: i for i, name in enumerate(Plant.OUTPUT_NAMES)}
+def test_each_field_holds_the_outputs_of_its_names(fmu_path):
+    """Each field from the FMU variables the default mapping names, written out here by hand."""
+    with Plant({}, fmu_path) as plant:
+        outputs = np.arange(len(plant.output_names), dtype=float)
+        state = plant._reader.state(outputs, True)
+        index = {name: i for i, name in enumerate(plant.output_names)}
     expect = {"pos_ned": ("pos_n", "pos_e", "pos_d"), "vel_ned": ("vel_n", "vel_e", "vel_d"),
               "acc_ned": ("acc_n", "acc_e", "acc_d"), "q_wxyz": ("q_w", "q_x", "q_y", "q_z"),
               "rpy": ("roll", "pitch", "yaw"), "rates_frd": ("rate_x", "rate_y", "rate_z"),
@@ -30,8 +32,8 @@ def test_grouped_inputs_reach_the_inputs_of_their_names(fmu_path):
     with Plant({}, fmu_path) as plant:
         plant.set_input_groups((0.1, 0.2, 0.3, 0.4), (1.0, 0.9, 0.8, 0.7), np.array((1.0, 2.0, 3.0)),
                                np.array((4.0, 5.0, 6.0)), np.array((0.01, 0.02, 0.03)), 0.25)
-        values = plant._in_view  # what goes to fmi2SetReal, in INPUT_NAMES order
-        named = dict(zip(plant.INPUT_NAMES, values.tolist(), strict=True))
+        values = plant._in_view  # what goes to fmi2SetReal, in input_names order
+        named = dict(zip(plant.input_names, values.tolist(), strict=True))
         assert [named[f"motor_cmd_{i}"] for i in range(1, 5)] == [0.1, 0.2, 0.3, 0.4]
         assert [named[f"motor_health_{i}"] for i in range(1, 5)] == [1.0, 0.9, 0.8, 0.7]
         assert [named[n] for n in ("wind_n", "wind_e", "wind_d", "f_dist_n", "f_dist_e", "f_dist_d")] == [

@@ -94,7 +94,7 @@ def test_imu_on_a_multirotor_reads_thrust_not_gravity_at_any_attitude(fmu_path):
 
     params = {"init_pos_d": -100.0, "drag_coeff_x": 0.0, "drag_coeff_y": 0.0, "drag_coeff_z": 0.0}
     with Plant(params, fmu_path) as plant:
-        u = np.zeros(len(plant.INPUT_NAMES))
+        u = np.zeros(len(plant.input_names))
         for i in range(1, 5):
             u[plant.input_index[f"motor_cmd_{i}"]] = 0.6
             u[plant.input_index[f"motor_health_{i}"]] = 1.0
@@ -243,7 +243,7 @@ def test_accelerometer_reads_gravity_rotated_into_the_tilted_body_plus_accelerat
     from plant_fmu import Plant
 
     with Plant({"init_pos_d": -100.0}, fmu_path) as plant:
-        u = np.zeros(len(plant.INPUT_NAMES))
+        u = np.zeros(len(plant.input_names))
         u[[plant.input_index[f"motor_cmd_{i}"] for i in range(1, 5)]] = 0.55
         u[[plant.input_index[f"motor_health_{i}"] for i in range(1, 5)]] = 1.0
         u[plant.input_index["tau_dist_x"]] = 0.015

@@ -1,11 +1,12 @@
 /*
- * Quadrotor plant as an FMI 2.0 co-simulation FMU.
+ * Multirotor plant (PX4's quad X or hexa X, parameter rotor_count) as an FMI 2.0 co-simulation FMU.
  *
  * SI units; NED earth frame, FRD body frame, quaternion w-x-y-z rotating body FRD
  * into NED (as PX4). Value references and defaults come from quadrotor_vars.h,
  * which is generated together with modelDescription.xml from plant_fmu/variables.py.
  *
- * State x: pos_ned[3], vel_ned[3], q[4], omega_frd[3], rotor thrust[4].
+ * State x: pos_ned[3], vel_ned[3], q[4], omega_frd[3], rotor thrust[MAX_ROTORS] (the unused ones stay 0),
+ * battery charge drawn (C).
  * Each doStep integrates with fixed-step RK4 (parameter integration_step), the
  * last sub-step shortened to land exactly on the communication point.
  */
@@ -18,7 +19,10 @@
 #include "fmi2Functions.h"
 #include "quadrotor_vars.h"
 
-#define NX 17
+#define MAX_ROTORS 6
+#define MAX_CELLS 14
+#define X_CHARGE (13 + MAX_ROTORS)
+#define NX (X_CHARGE + 1)
 #define X_POS 0
 #define X_VEL 3
 #define X_Q 6
@@ -70,19 +74,40 @@ static double thrust_command(const Model *m, int i) {
     return health * P(m, thrust_max) * ((1 - k) * u + k * u * fabs(u));
 }
 
-/* PX4 quad X: rotor positions (FRD, in units of arm/sqrt2) and spin (+1 CCW). */
-static const double ROTOR_X[4] = {+1, -1, +1, -1};
-static const double ROTOR_Y[4] = {+1, -1, -1, +1};
-static const double ROTOR_SPIN[4] = {+1, +1, -1, -1};
+/* Rotor positions (FRD, in units of rotor_scale) and spin (+1 CCW seen from above, PX4's CA_ROTORi_KM > 0),
+ * in PX4's motor order. Quad X: PX4 airframe 4001, rotors at (+-1, +-1) arm/sqrt2. Hexa X: PX4 airframe 6001
+ * (CA_ROTOR0..5 at azimuths 90, 270, 330, 150, 30, 210 deg from the nose), rotors at the arm length. */
+static const double QUAD_X[4] = {+1, -1, +1, -1};
+static const double QUAD_Y[4] = {+1, -1, -1, +1};
+static const double QUAD_SPIN[4] = {+1, +1, -1, -1};
+static const double HEXA_X[6] = {0, 0, 0.8660254037844386, -0.8660254037844386, 0.8660254037844386,
+                                 -0.8660254037844386};
+static const double HEXA_Y[6] = {+1, -1, -0.5, +0.5, +0.5, -0.5};
+static const double HEXA_SPIN[6] = {-1, +1, -1, +1, +1, -1};
+
+static int rotor_count(const Model *m) { return (int)P(m, rotor_count); }
+static int is_hexa(const Model *m) { return rotor_count(m) == 6; }
+static double rotor_x(const Model *m, int i) { return is_hexa(m) ? HEXA_X[i] : QUAD_X[i]; }
+static double rotor_y(const Model *m, int i) { return is_hexa(m) ? HEXA_Y[i] : QUAD_Y[i]; }
+static double rotor_spin(const Model *m, int i) { return is_hexa(m) ? HEXA_SPIN[i] : QUAD_SPIN[i]; }
+/* The length that rotor_x and rotor_y are in units of. */
+static double rotor_scale(const Model *m) { return is_hexa(m) ? P(m, arm_length) : P(m, arm_length) / sqrt(2.0); }
+
+/* Sum of the rotors' thrusts, added left to right. */
+static double thrust_sum(const Model *m, const double *thrust) {
+    double sum = thrust[0];
+    for (int i = 1; i < rotor_count(m); i++) sum += thrust[i];
+    return sum;
+}
 
 /* Body torque from rotor thrusts: r x (0, 0, -T) plus drag torque, CCW rotors yaw right. */
 static void rotor_torque(const Model *m, const double *thrust, double tau[3]) {
-    double a = P(m, arm_length) / sqrt(2.0);
+    double a = rotor_scale(m);
     tau[0] = tau[1] = tau[2] = 0;
-    for (int i = 0; i < 4; i++) {
-        tau[0] += -a * ROTOR_Y[i] * thrust[i];
-        tau[1] += a * ROTOR_X[i] * thrust[i];
-        tau[2] += ROTOR_SPIN[i] * P(m, yaw_moment_coeff) * thrust[i];
+    for (int i = 0; i < rotor_count(m); i++) {
+        tau[0] += -a * rotor_y(m, i) * thrust[i];
+        tau[1] += a * rotor_x(m, i) * thrust[i];
+        tau[2] += rotor_spin(m, i) * P(m, yaw_moment_coeff) * thrust[i];
     }
 }
 
@@ -119,10 +144,10 @@ static void body_air_velocity(const Model *m, const double *x, double R[3][3], d
  *   blade flapping   M = -k_flap W (v_in x z_body)  (air from ahead pitches the nose up)
  * and the body's parasitic drag -1/2 rho CdA |v_air| v_air per axis. `thrust_eff` gets each rotor's
  * thrust with the inflow and lift changes; force and torque exclude the thrust itself. */
-static void aero_wrench(const Model *m, const double *x, const double v_air_b[3], double thrust_eff[4],
+static void aero_wrench(const Model *m, const double *x, const double v_air_b[3], double thrust_eff[MAX_ROTORS],
                         double f_b[3], double tau_b[3]) {
     const double *w = x + X_W, *thrust = x + X_T;
-    double a = P(m, arm_length) / sqrt(2.0);
+    double a = rotor_scale(m);
     double k_d = P(m, rotor_drag_coeff), k_z = P(m, induced_inflow_coeff);
     double k_h = P(m, translational_lift_coeff), k_flap = P(m, flapping_coeff);
     double half_rho = 0.5 * P(m, air_density);
@@ -131,8 +156,8 @@ static void aero_wrench(const Model *m, const double *x, const double v_air_b[3]
     f_b[1] = -half_rho * P(m, parasitic_drag_area_y) * speed * v_air_b[1];
     f_b[2] = -half_rho * P(m, parasitic_drag_area_z) * speed * v_air_b[2];
     tau_b[0] = tau_b[1] = tau_b[2] = 0;
-    for (int i = 0; i < 4; i++) {
-        double rx = a * ROTOR_X[i], ry = a * ROTOR_Y[i];
+    for (int i = 0; i < rotor_count(m); i++) {
+        double rx = a * rotor_x(m, i), ry = a * rotor_y(m, i);
         /* hub velocity: v + w x r with r = (rx, ry, 0) */
         double vx = v_air_b[0] - w[2] * ry, vy = v_air_b[1] + w[2] * rx, vz = v_air_b[2] + w[0] * ry - w[1] * rx;
         double spin = fabs(rotor_speed(m, thrust[i]));
@@ -156,23 +181,91 @@ static void body_wrench(const Model *m, const double *x, double R[3][3], double 
     f_b[1] = -P(m, drag_coeff_y) * v_air_b[1];
     f_b[2] = -P(m, drag_coeff_z) * v_air_b[2];
     if (!aero_on(m)) {
-        f_b[2] -= thrust[0] + thrust[1] + thrust[2] + thrust[3];
+        f_b[2] -= thrust_sum(m, thrust);
         if (tau) rotor_torque(m, thrust, tau);
         return;
     }
-    double thrust_eff[4], f_aero[3], tau_aero[3];
+    double thrust_eff[MAX_ROTORS], f_aero[3], tau_aero[3];
     aero_wrench(m, x, v_air_b, thrust_eff, f_aero, tau_aero);
     for (int i = 0; i < 3; i++) f_b[i] += f_aero[i];
-    f_b[2] -= thrust_eff[0] + thrust_eff[1] + thrust_eff[2] + thrust_eff[3];
+    f_b[2] -= thrust_sum(m, thrust_eff);
     if (tau) {
-        double a = P(m, arm_length) / sqrt(2.0);
+        double a = rotor_scale(m);
         rotor_torque(m, thrust, tau); /* yaw drag torque of the rotors, from their thrust curve */
         tau[0] = tau[1] = 0;
-        for (int i = 0; i < 4; i++) { /* roll and pitch from each rotor's effective thrust */
-            tau[0] += -a * ROTOR_Y[i] * thrust_eff[i];
-            tau[1] += a * ROTOR_X[i] * thrust_eff[i];
+        for (int i = 0; i < rotor_count(m); i++) { /* roll and pitch from each rotor's effective thrust */
+            tau[0] += -a * rotor_y(m, i) * thrust_eff[i];
+            tau[1] += a * rotor_x(m, i) * thrust_eff[i];
         }
         for (int i = 0; i < 3; i++) tau[i] += tau_aero[i];
+    }
+}
+
+/* ---- Battery: N LiPo cells in series with a series resistance each, discharged by the rotors' shaft power
+ * over an efficiency and a base current. Nothing of it acts back on the flight. ---- */
+
+/* Open-circuit voltage of one lithium-ion polymer cell against state of charge: M. Chen and G. A.
+ * Rincon-Mora, "Accurate electrical battery model capable of predicting runtime and I-V performance",
+ * IEEE Trans. Energy Conversion 21(2), 2006, eq. for V_oc(SOC) (4.10 V full, 2.65 V empty). */
+static double cell_ocv(double soc) {
+    double s = clamp(soc, 0.0, 1.0);
+    return -1.031 * exp(-35.0 * s) + 3.685 + 0.2156 * s - 0.1178 * s * s + 0.3201 * s * s * s;
+}
+
+static int cell_count(const Model *m) { return (int)P(m, battery_cells); }
+
+/* The failing cell, 1..N, or 0. */
+static int fault_cell(const Model *m) {
+    int k = (int)lround(m->r[VR_battery_fault_cell]);
+    return k >= 1 && k <= cell_count(m) ? k : 0;
+}
+
+static double state_of_charge(const Model *m, double charge_c) {
+    return P(m, battery_initial_soc) - charge_c / (3600.0 * P(m, battery_capacity));
+}
+
+static double pack_ocv(const Model *m, double soc) {
+    return cell_count(m) * cell_ocv(soc) - (fault_cell(m) ? m->r[VR_battery_fault_voltage] : 0.0);
+}
+
+static double pack_resistance(const Model *m) {
+    return cell_count(m) * P(m, battery_cell_resistance) + (fault_cell(m) ? m->r[VR_battery_fault_resistance] : 0.0);
+}
+
+/* Shaft power of the rotors: drag torque k_m |T| times speed w (rotor_speed). */
+static double rotor_power(const Model *m, const double *thrust) {
+    double power = 0;
+    for (int i = 0; i < rotor_count(m); i++)
+        power += P(m, yaw_moment_coeff) * fabs(thrust[i]) * fabs(rotor_speed(m, thrust[i]));
+    return power;
+}
+
+/* Pack current I drawing the rotors' electrical power P = P_shaft / efficiency at the terminal voltage
+ * V = V_oc - R I besides the base current I_b: (I - I_b)(V_oc - R I) = P, the smaller root; past the
+ * pack's maximum power the current stays at that point. */
+static double battery_current(const Model *m, const double *x) {
+    double v_oc = pack_ocv(m, state_of_charge(m, x[X_CHARGE])), r = pack_resistance(m);
+    double i_b = P(m, battery_base_current), p = rotor_power(m, x + X_T) / P(m, battery_efficiency);
+    if (r <= 0) return i_b + (v_oc > 0 ? p / v_oc : 0);
+    double b = v_oc + r * i_b, disc = b * b - 4 * r * (v_oc * i_b + p);
+    return (b - sqrt(disc > 0 ? disc : 0)) / (2 * r);
+}
+
+static void battery_outputs(Model *m, const double *x) {
+    double current = battery_current(m, x), soc = state_of_charge(m, x[X_CHARGE]);
+    double healthy = cell_ocv(soc) - current * P(m, battery_cell_resistance);
+    int fault = fault_cell(m);
+    m->r[VR_battery_current] = current;
+    m->r[VR_battery_voltage] = pack_ocv(m, soc) - current * pack_resistance(m);
+    m->r[VR_battery_consumed] = x[X_CHARGE] / 3600.0;
+    m->r[VR_battery_remaining] = soc > 0 ? soc : 0;
+    for (int k = 1; k <= MAX_CELLS; k++) {
+        double v = 0;
+        if (k <= cell_count(m)) {
+            v = healthy;
+            if (k == fault) v -= m->r[VR_battery_fault_voltage] + current * m->r[VR_battery_fault_resistance];
+        }
+        m->r[VR_cell_voltage_1 + k - 1] = v;
     }
 }
 
@@ -204,8 +297,9 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
     double tau[3];
     double Ixx = P(m, Ixx), Iyy = P(m, Iyy), Izz = P(m, Izz), tau_m = P(m, motor_tau);
 
-    for (int i = 0; i < 4; i++)
-        dx[X_T + i] = tau_m > 0 ? (thrust_command(m, i) - thrust[i]) / tau_m : 0;
+    for (int i = 0; i < MAX_ROTORS; i++)
+        dx[X_T + i] = tau_m > 0 && i < rotor_count(m) ? (thrust_command(m, i) - thrust[i]) / tau_m : 0;
+    dx[X_CHARGE] = battery_current(m, x);
     if (contact) {
         memset(dx, 0, sizeof(double) * X_T);
         return;
@@ -254,7 +348,7 @@ static void rk4_step(Model *m, double h) {
     double k1[NX], k2[NX], k3[NX], k4[NX], xt[NX];
     int contact;
     if (P(m, motor_tau) <= 0) /* ideal rotors follow the command at once */
-        for (int i = 0; i < 4; i++) m->x[X_T + i] = thrust_command(m, i);
+        for (int i = 0; i < rotor_count(m); i++) m->x[X_T + i] = thrust_command(m, i);
     contact = in_contact(m, m->x);
     m->contact = contact;
     derivatives(m, m->x, contact, k1);
@@ -266,7 +360,7 @@ static void rk4_step(Model *m, double h) {
     derivatives(m, xt, contact, k4);
     for (int i = 0; i < NX; i++) m->x[i] += h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i]);
     if (P(m, motor_tau) <= 0)
-        for (int i = 0; i < 4; i++) m->x[X_T + i] = thrust_command(m, i);
+        for (int i = 0; i < rotor_count(m); i++) m->x[X_T + i] = thrust_command(m, i);
     normalize_quat(m->x + X_Q);
     if (m->x[X_POS + 2] > ground_d(m)) { /* touched down during this step */
         m->x[X_POS + 2] = ground_d(m);
@@ -281,21 +375,20 @@ static void rk4_step(Model *m, double h) {
 static void update_outputs(Model *m) {
     double R[3][3], acc[3], tau[3];
     const double *x = m->x, *q = x + X_Q;
-    double g = P(m, g);
+    double g = P(m, g), thrust_total = 0;
     int contact = in_contact(m, x);
-    double thrust_total = 0;
 
     for (int i = 0; i < 3; i++) {
         m->r[VR_pos_n + i] = x[X_POS + i];
         m->r[VR_vel_n + i] = x[X_VEL + i];
         m->r[VR_rate_x + i] = x[X_W + i];
     }
-    for (int i = 0; i < 4; i++) {
-        m->r[VR_q_w + i] = q[i];
+    for (int i = 0; i < 4; i++) m->r[VR_q_w + i] = q[i];
+    for (int i = 0; i < MAX_ROTORS; i++) {
         m->r[VR_thrust_1 + i] = x[X_T + i];
         m->r[VR_rotor_speed_1 + i] = rotor_speed(m, x[X_T + i]);
-        thrust_total += x[X_T + i];
     }
+    for (int i = 0; i < rotor_count(m); i++) thrust_total += x[X_T + i];
     m->r[VR_thrust_total] = thrust_total;
     if (contact) acc[0] = acc[1] = acc[2] = 0;
     else free_accel(m, x, acc);
@@ -319,6 +412,7 @@ static void update_outputs(Model *m) {
     m->r[VR_total_mass] = total_mass(m);
     m->r[VR_on_ground] = contact ? 1.0 : 0.0;
     m->contact = contact;
+    battery_outputs(m, x);
 }
 
 static void initialize_state(Model *m) {
@@ -329,7 +423,7 @@ static void initialize_state(Model *m) {
     m->x[X_POS + 2] = P(m, init_pos_d) > ground_d(m) ? ground_d(m) : P(m, init_pos_d);
     m->x[X_Q + 0] = cos(yaw / 2);
     m->x[X_Q + 3] = sin(yaw / 2);
-    for (int i = 0; i < 4; i++) m->x[X_T + i] = thrust_command(m, i);
+    for (int i = 0; i < rotor_count(m); i++) m->x[X_T + i] = thrust_command(m, i);
     update_outputs(m);
 }
 
@@ -350,6 +444,17 @@ static int parameters_valid(Model *m) {
     }
     if (!(P(m, arm_length) > 0 && P(m, thrust_max) > 0 && P(m, motor_tau) >= 0)) {
         log_msg(m, fmi2Error, "logStatusError", "arm_length, thrust_max must be > 0 and motor_tau >= 0");
+        return 0;
+    }
+    if (!(rotor_count(m) == 4 || rotor_count(m) == 6)) {
+        log_msg(m, fmi2Error, "logStatusError", "rotor_count must be 4 (quad X) or 6 (hexa X)");
+        return 0;
+    }
+    if (!(cell_count(m) >= 1 && cell_count(m) <= MAX_CELLS && P(m, battery_capacity) > 0 &&
+          P(m, battery_initial_soc) >= 0 && P(m, battery_initial_soc) <= 1 && P(m, battery_cell_resistance) >= 0 &&
+          P(m, battery_efficiency) > 0 && P(m, battery_efficiency) <= 1 && P(m, battery_base_current) >= 0)) {
+        log_msg(m, fmi2Error, "logStatusError", "battery: cells 1..14, capacity > 0, initial soc 0..1, "
+                "resistance >= 0, efficiency in (0, 1], base current >= 0");
         return 0;
     }
     if (!(P(m, rotor_speed_max) > 0 && P(m, air_density) >= 0)) {
@@ -423,7 +528,8 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real value[]) {
     Model *m = (Model *)c;
     for (size_t i = 0; i < n; i++) {
-        if (vr[i] >= NVARS || VAR_CAUSALITY[vr[i]] == CAUSALITY_OUTPUT) return fmi2Error;
+        if (vr[i] >= NVARS || VAR_CAUSALITY[vr[i]] == CAUSALITY_OUTPUT || VAR_TYPE[vr[i]] != TYPE_REAL)
+            return fmi2Error;
         if (VAR_CAUSALITY[vr[i]] == CAUSALITY_PARAMETER && m->initialized) {
             log_msg(m, fmi2Error, "logStatusError", "parameter %u is fixed after initialization", vr[i]);
             return fmi2Error;
@@ -441,23 +547,37 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 fmi2Status fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean value[]) {
     Model *m = (Model *)c;
     for (size_t i = 0; i < n; i++) {
-        if (vr[i] != VR_on_ground) return fmi2Error;
+        if (vr[i] >= NVARS || VAR_TYPE[vr[i]] != TYPE_BOOLEAN) return fmi2Error;
         value[i] = m->r[vr[i]] != 0.0;
     }
     return fmi2OK;
 }
 
 fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer value[]) {
-    (void)c; (void)vr; (void)value;
-    return n == 0 ? fmi2OK : fmi2Error;
+    Model *m = (Model *)c;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= NVARS || VAR_TYPE[vr[i]] != TYPE_INTEGER) return fmi2Error;
+        value[i] = (fmi2Integer)m->r[vr[i]];
+    }
+    return fmi2OK;
 }
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String value[]) {
     (void)c; (void)vr; (void)value;
     return n == 0 ? fmi2OK : fmi2Error;
 }
 fmi2Status fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer value[]) {
-    (void)c; (void)vr; (void)value;
-    return n == 0 ? fmi2OK : fmi2Error;
+    Model *m = (Model *)c;
+    for (size_t i = 0; i < n; i++) {
+        if (vr[i] >= NVARS || VAR_TYPE[vr[i]] != TYPE_INTEGER || VAR_CAUSALITY[vr[i]] != CAUSALITY_PARAMETER)
+            return fmi2Error;
+        if (m->initialized) {
+            log_msg(m, fmi2Error, "logStatusError", "parameter %u is fixed after initialization", vr[i]);
+            return fmi2Error;
+        }
+        m->r[vr[i]] = value[i];
+    }
+    if (!m->initialized) initialize_state(m);
+    return fmi2OK;
 }
 fmi2Status fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean value[]) {
     (void)c; (void)vr; (void)value;

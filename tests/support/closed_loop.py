@@ -82,7 +82,7 @@ def fly(config: EmulatorConfig, plant_params: dict, reference: Callable[[float],
     rows = []
     with Plant(params) as plant:
         o = plant.output_index
-        u = np.zeros(len(plant.INPUT_NAMES))
+        u = np.zeros(len(plant.input_names))
         cmd_idx = [plant.input_index[f"motor_cmd_{i}"] for i in range(1, 5)]
         u[[plant.input_index[f"motor_health_{i}"] for i in range(1, 5)]] = 1.0
         u[cmd_idx] = mixer.commands(params.get("mass", 1.0) * 9.80665, np.zeros(3))
