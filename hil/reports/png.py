@@ -11,6 +11,7 @@ non-interactive Agg backend.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,18 +114,25 @@ def figure_trajectory(data: RunData, out: Path, frame: Frame = NED_FRAME) -> Pat
     return _save(fig, out / _name(data, frame, "trajectory"))
 
 
-def figure_errors(data: RunData, out: Path, frame: Frame = NED_FRAME) -> Path:
+def _per_axis(data: RunData, out: Path, frame: Frame, key: str, what: str, ylabel: str,
+              draw: Callable[[plt.Axes, int], object]) -> Path:
+    """Three stacked axes on the mission clock, one per position axis of `frame`, each drawn by `draw`."""
     fig, axes = _time_axes(3, 6)
-    error = frame.position(data.error)
     for i, ax in enumerate(axes):
-        ax.plot(data.t, error[:, i], "r-", linewidth=1)
+        draw(ax, i)
         _mark(ax, data, labelled=i == 0)
-        ax.set_ylabel(f"e {frame.axes[i]} (m)")
+        ax.set_ylabel(ylabel.format(axis=frame.axes[i]))
         ax.grid(True)
     axes[0].legend(fontsize=7)
-    axes[0].set_title(_title(data, frame, "position error", "position_error"), fontsize=9)
+    axes[0].set_title(_title(data, frame, what, key), fontsize=9)
     axes[-1].set_xlabel("mission time (s)")
-    return _save(fig, out / _name(data, frame, "position_error"))
+    return _save(fig, out / _name(data, frame, key))
+
+
+def figure_errors(data: RunData, out: Path, frame: Frame = NED_FRAME) -> Path:
+    error = frame.position(data.error)
+    return _per_axis(data, out, frame, "position_error", "position error", "e {axis} (m)",
+                     lambda ax, i: ax.plot(data.t, error[:, i], "r-", linewidth=1))
 
 
 def attitude_error(data: RunData, frame: Frame = NED_FRAME) -> np.ndarray:
@@ -196,17 +204,12 @@ def figure_disturbance(data: RunData, out: Path, frame: Frame = NED_FRAME) -> Pa
         return None
     estimate = frame.position(np.column_stack([data.estimates[k] for k in keys]))
     applied = frame.position(data.force)
-    fig, axes = _time_axes(3, 6)
-    for i, ax in enumerate(axes):
+
+    def draw(ax: plt.Axes, i: int) -> None:
         ax.plot(data.t, applied[:, i], "b-", label="applied d_s")
         ax.plot(data.est_t, estimate[:, i], "r--", label=r"$\hat{d}_s$")
-        _mark(ax, data, labelled=i == 0)
-        ax.set_ylabel(f"{frame.axes[i]} (N)")
-        ax.grid(True)
-    axes[0].legend(fontsize=7)
-    axes[0].set_title(_title(data, frame, "disturbance estimate", "disturbance_estimate"), fontsize=9)
-    axes[-1].set_xlabel("mission time (s)")
-    return _save(fig, out / _name(data, frame, "disturbance_estimate"))
+
+    return _per_axis(data, out, frame, "disturbance_estimate", "disturbance estimate", "{axis} (N)", draw)
 
 
 def report(run_dir: Path, paper_frame: bool = False) -> list[Path]:

@@ -28,11 +28,13 @@ MAX_INTEGER = 2**62  # `integers` draws with numpy's int64, its upper end inclus
 Integer = Annotated[int, Field(ge=-MAX_INTEGER, le=MAX_INTEGER)]
 
 
-class _Model(BaseModel):
+class _SweepPart(BaseModel):
+    """A part of the sweep file: an unknown key is an error, NaN and ±inf are refused."""
+
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-class Range(_Model):
+class Range(_SweepPart):
     """Grid: `num` evenly spaced values from start to stop; random: uniform between them."""
 
     start: float
@@ -40,12 +42,12 @@ class Range(_Model):
     num: int = Field(ge=2, le=10_000)
 
 
-class Normal(_Model):
+class Normal(_SweepPart):
     mean: float
     sd: float = Field(gt=0)
 
 
-class Polar(_Model):
+class Polar(_SweepPart):
     """A horizontal NED vector from a speed and a compass direction (0 = north, 90 = east), each uniform
     in its interval; `down` fixed."""
 
@@ -65,7 +67,7 @@ def _check_interval(interval: tuple[float, float], name: str) -> None:
         raise ValueError(f"{name} [{interval[0]:g}, {interval[1]:g}] runs high to low; give it as [low, high]")
 
 
-class Dimension(_Model):
+class Dimension(_SweepPart):
     """Exactly one of: values (a list), range, uniform, normal, integers (inclusive), choice, polar."""
 
     values: Annotated[list[Any], Field(min_length=1)] | None = None
@@ -115,7 +117,7 @@ class Dimension(_Model):
 PathKey = Annotated[str, Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*(\.[A-Za-z_][A-Za-z0-9_]*(\[\d+\])*)*$")]
 
 
-class SweepSpec(_Model):
+class SweepSpec(_SweepPart):
     name: str = Field(pattern=r"^[A-Za-z0-9_.-]+$")
     description: str = ""
     scenario: Path
