@@ -19,7 +19,7 @@ from run_timing import benchmark_parser
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import SIMULATED, BoardSession
-from firmware_interface.board_requests import arm
+from firmware_interface.board_waits import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder, message_class

@@ -6,7 +6,7 @@ import pytest
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import ON_OWN_CLOCK, SIMULATED, BoardError, BoardSession
-from firmware_interface.board_requests import arm, set_offboard
+from firmware_interface.board_waits import arm, set_offboard
 from tests.support.scripted_board import ScriptedBoard
 
 READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))

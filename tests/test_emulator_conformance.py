@@ -12,7 +12,7 @@ import pytest
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import SIMULATED, BoardError, BoardSession
-from firmware_interface.board_requests import arm
+from firmware_interface.board_waits import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
