@@ -1,7 +1,9 @@
 """µs from HIL_SENSOR in to HIL_ACTUATOR_CONTROLS out, per controller, with the estimator.
 
 1. In-process: the emulated board handles a HIL_SENSOR frame (decode, estimator, controller,
-   mixer, encode of the reply), armed and flying on px4_sitl-like sensor packets.
+   mixer, encode of the reply), armed and flying on px4_sitl-like sensor packets: holding position (POSCTL,
+   the step the bench's own offboard flight costs the same) and in AUTO.TAKEOFF (the navigator's reference
+   sampled every step, its decisions at 20 Hz, the ground-station streams).
 2. Round trip over a real pty to the emulator in its own process (what the bench waits for).
 """
 
@@ -24,6 +26,7 @@ from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.transports import UdpTransport
+from firmware_interface.px4_modes import FlightMode
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 
 G = 9.80665
@@ -45,7 +48,8 @@ def sensor_frames(n: int) -> list[tuple[bytes, bytes | None]]:
     return frames
 
 
-def in_process(controller: str, frames: list[tuple[bytes, bytes | None]]) -> float:
+def in_process(controller: str, frames: list[tuple[bytes, bytes | None]],
+               mode: FlightMode = FlightMode.POSCTL) -> float:
     sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sink.bind(("127.0.0.1", 0))  # never read: the replies are dropped when its buffer fills
     board = EmulatedBoard(Link(UdpTransport("127.0.0.1", sink.getsockname()[1], listen=False)),
@@ -56,8 +60,8 @@ def in_process(controller: str, frames: list[tuple[bytes, bytes | None]]) -> flo
         if gps:
             board.handle(decoder.decode(bytearray(gps)))
         if k == SETTLE:
-            board.setpoint = None
-            assert board._arm() == 0
+            board.commander.mode = mode  # arming in it flies it
+            assert board.commander.arm() == 0
         start = time.perf_counter()
         board.handle(decoder.decode(bytearray(sensor)))
         if k > SETTLE:
@@ -99,8 +103,9 @@ def main() -> None:
     print("emulator: HIL_SENSOR in -> HIL_ACTUATOR_CONTROLS out, estimator on px4_sitl-like packets, armed")
     for controller in CONTROLLERS:
         step_us = in_process(controller, frames)
+        navigator_us = in_process(controller, frames, FlightMode.AUTO_TAKEOFF)
         p50, p99 = round_trip(controller, frames)
-        print(f"  {controller:12s}  in-process {step_us:6.1f} us (median)   "
+        print(f"  {controller:12s}  in-process {step_us:6.1f} us (median; AUTO.TAKEOFF {navigator_us:6.1f} us)   "
               f"pty round trip p50 {p50:6.1f} us  p99 {p99:6.1f} us")
 
 

@@ -16,11 +16,13 @@ from firmware_interface.emulator import compiled
 
 ROOT = Path(__file__).resolve().parent.parent
 
-# Flies every registered controller for 2 s on the estimator and the plant FMU (tests/support/closed_loop.py), then
-# prints numba's cache counters summed over every compiled function of the flight code.
+# Flies every registered controller for 2 s on the estimator and the plant FMU (tests/support/closed_loop.py), samples a
+# navigator move, then prints numba's cache counters summed over every compiled function of the flight code.
 FLY_AND_COUNT = """
 import json
+import numpy as np
 from firmware_interface.emulator import compiled
+from firmware_interface.emulator.trajectory import quintic_sample
 from firmware_interface.emulator.config import build_config
 from firmware_interface.emulator.control.registry import CONTROLLERS
 from hil.sensors import SensorsConfig
@@ -29,6 +31,7 @@ from tests.support.closed_loop import PAPER_PLANT, hover, fly
 for name in CONTROLLERS:
     fly(build_config({"controller": name, "airframe": "paper_airframe"}), PAPER_PLANT, hover((0.0, 0.0, -5.0)),
         2.0, start=(0.0, 0.0, -5.0), sensors=SensorsConfig())
+quintic_sample(np.zeros((3, 6)), 0.5)
 laws = {f"{c.py_func.__module__}.{c.py_func.__qualname__}": c.dispatcher.stats for c in compiled.COMPILED}
 print(json.dumps({"cache_dir": str(compiled.cache_dir()),
                   "hits": {name: sum(stats.cache_hits.values()) for name, stats in laws.items()},

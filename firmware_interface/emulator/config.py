@@ -11,10 +11,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator
 
 from firmware_interface.airframes import AIRFRAMES, Airframe, AirframeName
 from firmware_interface.emulator.control.registry import PLUGINS, ControllerName
+from firmware_interface.emulator.px4_params import PX4_PARAMS, unknown_names
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
 
 
@@ -72,6 +73,17 @@ class EmulatorConfig(_Model):
     failsafe_s: float = Field(0.5, gt=0, description="no HIL_SENSOR this long while armed: disarm")
     system_id: int = Field(1, ge=1, le=255)
     lockstep: bool = True
+    params: dict[str, float] = Field(default_factory=dict, description=(
+        "PX4 parameters of the commander and navigator to start with, by PX4's name (e.g. MIS_TAKEOFF_ALT, "
+        "RTL_RETURN_ALT); a ground station may change them in flight"))
+
+    @field_validator("params")
+    @classmethod
+    def _known_params(cls, params: dict[str, float]) -> dict[str, float]:
+        unknown = unknown_names(list(params))
+        if unknown:
+            raise ValueError(f"unknown parameter {unknown[0]!r:.40}: expected one of {', '.join(PX4_PARAMS)}")
+        return params
 
 
 # The inspection quad has ~1/11 of the paper airframe's inertia and 20 ms rotor lag: the attitude

@@ -1,90 +1,76 @@
-"""The emulated flight controller: PX4's HIL protocol on one side, the paper's controllers inside.
+"""The emulated flight controller: PX4's HIL protocol on one side, the paper's controllers inside, and to a
+ground station what PX4 answers it (modes, commands, missions, parameters, telemetry).
 
 Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, quadrotor, HIL_ENABLED), takes
 HIL_SENSOR / HIL_GPS (and, as truth when configured, ODOMETRY in the local frame at float precision, or
-PX4 SITL's HIL_STATE_QUATERNION, whose integer lat/lon, mm and cm/s quantise it), answers COMMAND_LONG
-with COMMAND_ACK, follows SET_POSITION_TARGET_LOCAL_NED in offboard mode, and answers each
-HIL_SENSOR with exactly one HIL_ACTUATOR_CONTROLS (lockstep flag set, time_usec echoed, as PX4
-SITL does). It knows only MAVLink bytes and its own configuration, never the plant.
+PX4 SITL's HIL_STATE_QUATERNION, whose integer lat/lon, mm and cm/s quantise it) and answers each
+HIL_SENSOR with exactly one HIL_ACTUATOR_CONTROLS (lockstep flag set, time_usec echoed, as PX4 SITL does).
+The commander (`commander.py`) keeps the flight mode and answers commands; the navigator (`navigator.py`)
+turns the mode into the reference the controller tracks; `mission_protocol.py` serves missions. It knows
+only MAVLink bytes and its own configuration, never the plant.
 """
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 
 import numpy as np
 from pymavlink.dialects.v20.common import (
-    MAV_AUTOPILOT_PX4,
-    MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
-    MAV_CMD_NAV_LAND,
+    MAV_CMD_GET_HOME_POSITION,
     MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
     MAV_CMD_REQUEST_MESSAGE,
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_LANDED_STATE_IN_AIR,
     MAV_LANDED_STATE_LANDING,
     MAV_LANDED_STATE_ON_GROUND,
-    MAV_PARAM_TYPE_REAL32,
+    MAV_LANDED_STATE_TAKEOFF,
     MAV_PROTOCOL_CAPABILITY_COMMAND_INT,
     MAV_PROTOCOL_CAPABILITY_MAVLINK2,
+    MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT,
     MAV_PROTOCOL_CAPABILITY_MISSION_INT,
     MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT,
     MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
-    MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
     MAV_SEVERITY_CRITICAL,
-    MAV_SEVERITY_INFO,
-    MAV_STATE_ACTIVE,
-    MAV_STATE_BOOT,
-    MAV_STATE_STANDBY,
-    MAV_TYPE_QUADROTOR,
     MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+    MAVLINK_MSG_ID_GPS_RAW_INT,
+    MAVLINK_MSG_ID_HOME_POSITION,
+    MAVLINK_MSG_ID_MISSION_CURRENT,
+    MAVLINK_MSG_ID_SYS_STATUS,
 )
 
 from firmware_interface import hil_codec as codec
+from firmware_interface.emulator.commander import Command, Commander
 from firmware_interface.emulator.config import EmulatorConfig
-from firmware_interface.emulator.control import ControlOutput, Setpoint, VehicleState
-from firmware_interface.emulator.control.registry import DEBUG_NAME_LENGTH, make_controller, wire_name
+from firmware_interface.emulator.control import ControlOutput, VehicleState
+from firmware_interface.emulator.control.registry import make_controller
 from firmware_interface.emulator.estimator import Estimator
-from firmware_interface.emulator.geometry import euler_to_quat, quat_to_euler
+from firmware_interface.emulator.failsafe import Failsafes
+from firmware_interface.emulator.flight import Flight
+from firmware_interface.emulator.geometry import quat_to_euler
+from firmware_interface.emulator.mission_protocol import MISSION_MESSAGES, MissionServer
 from firmware_interface.emulator.mixer import Mixer
-from firmware_interface.emulator.params import Parameter, parameter_table
+from firmware_interface.emulator.navigator import NAVIGATOR_PERIOD_US
+from firmware_interface.emulator.offboard import OffboardInput
+from firmware_interface.emulator.params import ParameterServer
+from firmware_interface.emulator.px4_params import Px4Values
+from firmware_interface.emulator.telemetry import Telemetry
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Link, LinkLost, Message
-from firmware_interface.px4_modes import (
-    FORCE_DISARM_MAGIC,
-    PX4_AUTO_SUB_MODE_LAND,
-    PX4_MAIN_MODE_AUTO,
-    PX4_MAIN_MODE_OFFBOARD,
-    PX4_MAIN_MODE_POSCTL,
-    custom_mode,
-)
+from firmware_interface.px4_modes import FlightMode
 
 # what a GCS may use
 CAPABILITIES = (MAV_PROTOCOL_CAPABILITY_MAVLINK2 | MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
                 | MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED | MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-                | MAV_PROTOCOL_CAPABILITY_MISSION_INT)
+                | MAV_PROTOCOL_CAPABILITY_MISSION_INT | MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT)
 FLIGHT_SW_VERSION = (0 << 24) | (1 << 16) | (0 << 8) | 255  # hil-bench emulator 0.1.0, release
-HEARTBEAT_PERIOD_US = 1_000_000
-TELEMETRY_PERIOD_US = 20_000  # ATTITUDE, LOCAL_POSITION_NED, ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY at 50 Hz
-EXTENDED_SYS_STATE_PERIOD_US = 200_000  # 5 Hz, PX4's rate on its onboard link
-LANDED_CLEARANCE_M = 0.3  # adaptation and integrators wait until the vehicle has left the ground
-# PX4's land mode and multicopter land detector, in their default settings: descend at MPC_LAND_SPEED;
-# landed once vertical speed < LNDMC_Z_VEL_MAX, horizontal < LNDMC_XY_VEL_MAX and thrust low for
-# LNDMC_TRIG_TIME; disarm COM_DISARM_LAND after that.
-LAND_SPEED_M_S = 0.7  # the default of MPC_LAND_SPEED, settable like it
-LAND_Z_VEL_MAX_M_S = 0.25
-LAND_XY_VEL_MAX_M_S = 1.5
-LAND_LOW_THRUST_FRACTION = 0.6  # of the hover thrust estimate (PX4's ground-contact limit with one)
-LAND_TRIGGER_S = 1.0
-DISARM_AFTER_LAND_S = 2.0
+STATUSTEXT_CHUNK = 50
 
 
-class EmulatedBoard:
+class EmulatedBoard(Flight):
     def __init__(self, link: Link, config: EmulatorConfig, clock: Callable[[], float] = time.monotonic) -> None:
         self.link = link
         self.config = config
@@ -94,31 +80,27 @@ class EmulatedBoard:
         self.controller = make_controller(config)
         self.mixer = Mixer(config.vehicle)
         self.estimator = Estimator(config.estimator, config.vehicle.g)
+        self.params = Px4Values(config.params)
         self.truth: VehicleState | None = None  # the latest true state received (state_source truth)
-        self.armed = False
-        self.offboard = False
-        self.setpoint: Setpoint | None = None
-        self.hold: Setpoint | None = None
-        self.takeoff_d: float | None = None
-        self.airborne = False
-        self.landing = False  # in land mode (MAV_CMD_NAV_LAND)
-        self.land_evidence_s = 0.0  # how long the land detector's conditions have held
-        self.landed_at_us: int | None = None
-        self.hover_thrust_n = 0.0
-        self.last_extended_state_us = -EXTENDED_SYS_STATE_PERIOD_US
+        self.last_fix: codec.GpsFix | None = None
+        self.last_fix_us = 0
         self.last_sensor_t_us: int | None = None
         self.last_sensor_wall = clock()
-        self.last_telemetry_us = -TELEMETRY_PERIOD_US
         self.last_heartbeat = -1e9
-        self.last_heartbeat_us = -HEARTBEAT_PERIOD_US
         self.boot_us: int | None = None
         self.last_output: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.last_control: ControlOutput | None = None
         self.stop_reason = ""
-        self.land_speed_m_s = LAND_SPEED_M_S
-        self.parameters: list[Parameter] = parameter_table(self)
+        self._text_id = 0
+        self.offboard = OffboardInput()
+        self.missions = MissionServer(config.system_id, self._send, self.status, self._mission_changed)
+        self.commander = Commander(self)
+        self.failsafes = Failsafes(self)
+        super().__init__()
+        self.telemetry = Telemetry(self)
+        self.param_server = ParameterServer(self)
 
-    # --- main loop ----------------------------------------------------------------
+    # --- main loop ----------------------------------------------------------------------------------------
     def run(self, should_stop: Callable[[], bool] = lambda: False) -> str:
         """Serve the link until it is lost or `should_stop()`; returns why it stopped."""
         try:
@@ -142,67 +124,75 @@ class EmulatedBoard:
     def _housekeeping(self) -> None:
         now = self.clock()
         if self.last_sensor_t_us is None and now - self.last_heartbeat >= 1.0:  # no simulation clock yet
-            self._heartbeat()
+            self.telemetry.heartbeat()
             self.last_heartbeat = now
         if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:
-            self._disarm()
-            self._status(MAV_SEVERITY_CRITICAL, f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
+            self.disarm()
+            self.status(MAV_SEVERITY_CRITICAL, f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
+        self.missions.service()
 
     def handle(self, msg: Message) -> None:
         kind = msg.get_type()
         if kind == "HIL_SENSOR":
             self._on_sensor(msg)
         elif kind == "HIL_GPS":
-            if self.last_sensor_t_us is not None:
-                self.estimator.on_gps(codec.read_hil_gps(msg), self.last_sensor_t_us)
+            self._on_gps(msg)
+        elif kind == "SET_POSITION_TARGET_LOCAL_NED":
+            if msg.target_system == self.config.system_id:
+                self.offboard.receive(msg, self.now_us)
         elif kind == "ODOMETRY":
             self.truth = self._truth_from_odometry(codec.read_odometry(msg))
         elif kind == "HIL_STATE_QUATERNION":
             self.truth = self._truth_from_ground_truth(codec.read_hil_state_quaternion(msg))
-        elif kind == "COMMAND_LONG":
+        elif kind in ("COMMAND_LONG", "COMMAND_INT"):
             self._on_command(msg)
         elif kind in ("PARAM_REQUEST_LIST", "PARAM_REQUEST_READ", "PARAM_SET"):
-            self._on_param(msg)
-        elif kind == "MISSION_REQUEST_LIST":  # an empty mission: this board flies offboard setpoints
-            self.link.send("MISSION_COUNT", target_system=msg.get_srcSystem(), target_component=msg.get_srcComponent(),
-                           count=0, mission_type=msg.mission_type, opaque_id=0)
-        elif kind == "SET_POSITION_TARGET_LOCAL_NED":
-            self.setpoint = Setpoint(np.array((msg.x, msg.y, msg.z)), np.array((msg.vx, msg.vy, msg.vz)),
-                                     np.array((msg.afx, msg.afy, msg.afz)), msg.yaw)
+            self.param_server.handle(msg)
+        elif kind in MISSION_MESSAGES:
+            self.missions.handle(msg)
 
-    # --- the control step ---------------------------------------------------------
+    # --- the control step ---------------------------------------------------------------------------------
     def _on_sensor(self, msg: Message) -> None:
         readings = codec.read_hil_sensor(msg)
         self.last_sensor_wall = self.clock()
-        dt = 0.0 if self.last_sensor_t_us is None else (readings.t_us - self.last_sensor_t_us) * 1e-6
-        self.last_sensor_t_us = readings.t_us
+        t_us = readings.t_us
+        dt = 0.0 if self.last_sensor_t_us is None else (t_us - self.last_sensor_t_us) * 1e-6
+        self.last_sensor_t_us = t_us
         if self.boot_us is None:
-            self.boot_us = readings.t_us
+            self.boot_us = t_us
         self.estimator.on_sensors(readings)
         motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         state = self._state()
-        if self.landed_at_us is not None and readings.t_us - self.landed_at_us >= DISARM_AFTER_LAND_S * 1e6:
-            self.landed_at_us = None
-            self._disarm()
-            self._status(MAV_SEVERITY_INFO, "Disarmed by landing")
+        if self.landed_at_us is not None:
+            self._disarm_after_landing(t_us)
+        if t_us >= self.navigator.next_tick_us:
+            self._tick(state, t_us)
         if self.armed and state is not None and 0.0 < dt < 0.1 and self.landed_at_us is None:
-            motors = self._control(state, dt)
-            if self.landing:
-                self._detect_landing(state, dt, readings.t_us)
+            motors = self.control(state, dt, t_us)
         self.last_output = motors
         # Telemetry and heartbeat go out before the reply and on the simulation clock, like PX4 SITL's
         # streams: in lockstep the bench then sees each step's messages with that step's reply.
-        if readings.t_us - self.last_heartbeat_us >= HEARTBEAT_PERIOD_US:
-            self.last_heartbeat_us = readings.t_us
-            self._heartbeat()
-        if readings.t_us - self.last_extended_state_us >= EXTENDED_SYS_STATE_PERIOD_US:
-            self.last_extended_state_us = readings.t_us
-            self.link.send("EXTENDED_SYS_STATE", vtol_state=0, landed_state=self.landed_state)
-        if readings.t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
-            self.last_telemetry_us = readings.t_us
-            self._telemetry(readings.t_us, state)
+        self.telemetry.step(t_us, state)
         self.link.send_fields("HIL_ACTUATOR_CONTROLS", codec.hil_actuator_controls_fields(
-            readings.t_us, motors, self.armed, lockstep=self.config.lockstep))
+            t_us, motors, self.armed, lockstep=self.config.lockstep))
+
+    def _tick(self, state: VehicleState | None, t_us: int) -> None:
+        """The navigator's rate: mode logic, failsafes, home, the ground station's streams."""
+        self.navigator.next_tick_us = t_us + NAVIGATOR_PERIOD_US
+        if state is not None:
+            if self.armed:
+                self.navigator.tick(state, t_us)
+            elif self.home is None and self.position_ok():
+                self.set_home(state)
+        self.failsafes.tick(t_us)
+        self.telemetry.ground_station(t_us, state)
+
+    def _on_gps(self, msg: Message) -> None:
+        if self.last_sensor_t_us is None:
+            return
+        fix = codec.read_hil_gps(msg)
+        self.estimator.on_gps(fix, self.last_sensor_t_us)
+        self.last_fix, self.last_fix_us = fix, self.last_sensor_t_us
 
     def _state(self) -> VehicleState | None:
         if self.config.state_source == "truth":
@@ -225,133 +215,74 @@ class EmulatedBoard:
         pos = np.array(self.estimator.origin.to_ned(t.lat_deg, t.lon_deg, t.alt_msl_m))
         return VehicleState(pos, np.array(t.vel_ned), quat_to_euler(np.array(t.q_wxyz)), np.array(t.rates_frd))
 
-    def _control(self, state: VehicleState, dt: float) -> tuple[float, ...]:
-        if self.takeoff_d is None:
-            self.takeoff_d = float(state.pos_ned[2])
-        self.airborne = self.airborne or state.pos_ned[2] < self.takeoff_d - LANDED_CLEARANCE_M
-        if self.landing and self.hold is not None:
-            self.hold.pos_ned[2] += self.land_speed_m_s * dt  # a descent the ground ends, as PX4's land mode
-            setpoint = self.hold
-        elif self.offboard and self.setpoint is not None:
-            setpoint = self.setpoint
-        else:
-            if self.hold is None:
-                self.hold = Setpoint(state.pos_ned.copy(), np.zeros(3), np.zeros(3), float(state.eta[2]))
-            setpoint = self.hold
-        # no adaptation while landing: pushing on the ground would read as a heavier vehicle
-        out = self.controller.update(state, setpoint, dt, adapt=self.airborne and not self.landing)
-        self.last_control = out
-        return tuple(float(u) for u in self.mixer.commands(out.thrust_n, out.torque_frd))
+    # --- what the commander and navigator read -------------------------------------------------------------
+    def settled(self) -> bool:
+        """The arming check of the state the flight code flies on."""
+        return self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
+
+    position_ok = settled
+
+    def armable(self) -> bool:
+        """Whether arming in the current mode would pass now (SYS_STATUS's PREARM_CHECK)."""
+        commander = self.commander
+        return self.settled() and commander.mode not in (FlightMode.AUTO_RTL, FlightMode.AUTO_LAND) \
+            and commander.can_run(commander.mode)
+
+    def manual_control_fresh(self) -> bool:
+        """Stick input from a ground station within COM_RC_LOSS_T (none is taken yet)."""
+        return False
+
+    def local_frame(self) -> LocalFrame | None:
+        return self.estimator.origin
 
     @property
     def landed_state(self) -> int:
         """EXTENDED_SYS_STATE.landed_state: on the ground until take-off and again once landed."""
         if not self.airborne:
             return MAV_LANDED_STATE_ON_GROUND
-        return MAV_LANDED_STATE_LANDING if self.landing else MAV_LANDED_STATE_IN_AIR
+        if self.navigator.descending:
+            return MAV_LANDED_STATE_LANDING
+        return MAV_LANDED_STATE_TAKEOFF if self.navigator.taking_off else MAV_LANDED_STATE_IN_AIR
 
-    def _detect_landing(self, state: VehicleState, dt: float, t_us: int) -> None:
-        out = self.last_control
-        still = (abs(float(state.vel_ned[2])) < LAND_Z_VEL_MAX_M_S
-                 and float(np.hypot(state.vel_ned[0], state.vel_ned[1])) < LAND_XY_VEL_MAX_M_S
-                 and out is not None and out.thrust_n < LAND_LOW_THRUST_FRACTION * self.hover_thrust_n)
-        self.land_evidence_s = self.land_evidence_s + dt if still else 0.0
-        if self.land_evidence_s >= LAND_TRIGGER_S:
-            self.landing = False
-            self.airborne = False
-            self.landed_at_us = t_us
-            self._status(MAV_SEVERITY_INFO, "Landing detected")
-
-    def _start_landing(self) -> int:
-        state = self._state()
-        if not self.armed or state is None:
-            return MAV_RESULT_DENIED
-        self.landing, self.offboard, self.land_evidence_s = True, False, 0.0
-        # the thrust that holds the vehicle now is the hover thrust estimate (payload included), as PX4's
-        # hover thrust estimator gives its land detector
-        nominal_n = self.config.vehicle.mass * self.config.vehicle.g
-        self.hover_thrust_n = self.last_control.thrust_n if self.last_control is not None else nominal_n
-        self.hold = Setpoint(state.pos_ned.copy(), np.array((0.0, 0.0, self.land_speed_m_s)), np.zeros(3),
-                             float(state.eta[2]))
-        self._status(MAV_SEVERITY_INFO, "Landing at current position")
-        return MAV_RESULT_ACCEPTED
-
-    # --- commands -----------------------------------------------------------------
+    # --- messages in and out -------------------------------------------------------------------------------
     def _on_command(self, msg: Message) -> None:
-        if msg.target_system not in (0, self.config.system_id):
+        if msg.target_system not in (0, self.config.system_id) or msg.target_component not in (0, 1):
             return
-        result = MAV_RESULT_UNSUPPORTED
-        if msg.command == MAV_CMD_COMPONENT_ARM_DISARM:
-            if msg.param1 == 1.0:
-                result = self._arm()
-            elif self.airborne and round(msg.param2) != FORCE_DISARM_MAGIC:
-                self._status(MAV_SEVERITY_CRITICAL, "Disarming denied: not landed")
-                result = MAV_RESULT_TEMPORARILY_REJECTED
-            else:
-                self._disarm()
-                result = MAV_RESULT_ACCEPTED
-        elif msg.command == MAV_CMD_NAV_LAND:
-            result = self._start_landing()
-        elif msg.command == MAV_CMD_DO_SET_MODE:
-            wants_offboard = int(msg.param2) == PX4_MAIN_MODE_OFFBOARD
-            if wants_offboard and self.setpoint is None:
-                self._status(MAV_SEVERITY_CRITICAL, "Offboard refused: no setpoint stream")
-                result = MAV_RESULT_DENIED
-            else:
-                self.offboard = wants_offboard
-                result = MAV_RESULT_ACCEPTED
-        elif msg.command == MAV_CMD_SET_MESSAGE_INTERVAL:
-            result = MAV_RESULT_ACCEPTED
-        elif msg.command == MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES or (
-                msg.command == MAV_CMD_REQUEST_MESSAGE and int(msg.param1) == MAVLINK_MSG_ID_AUTOPILOT_VERSION):
-            self._autopilot_version()
-            result = MAV_RESULT_ACCEPTED
+        command = Command.from_message(msg)
+        result = self.commander.handle(command)
+        if result == MAV_RESULT_UNSUPPORTED:
+            result = self._link_command(command)
         self.link.send("COMMAND_ACK", command=msg.command, result=result, progress=0, result_param2=0,
                        target_system=msg.get_srcSystem(), target_component=msg.get_srcComponent())
 
-    def _arm(self) -> int:
-        ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
-        if not ready:
-            self._status(MAV_SEVERITY_CRITICAL, "Arming denied: estimator not settled")
-            return MAV_RESULT_DENIED
-        if not self.armed:
-            self.armed = True
-            self.controller.reset()
-            self.takeoff_d = None
-            self.airborne = False
-            self.hold = None
-            self._status(MAV_SEVERITY_INFO, f"Armed ({self.controller.name})")
-        return MAV_RESULT_ACCEPTED
+    def _link_command(self, command: Command) -> int:
+        """What PX4's MAVLink module answers itself: message requests and intervals."""
+        if command.command == MAV_CMD_SET_MESSAGE_INTERVAL:
+            return MAV_RESULT_ACCEPTED
+        if command.command == MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            return self._send_message(MAVLINK_MSG_ID_AUTOPILOT_VERSION)
+        if command.command == MAV_CMD_GET_HOME_POSITION:
+            return self._send_message(MAVLINK_MSG_ID_HOME_POSITION)
+        if command.command == MAV_CMD_REQUEST_MESSAGE:
+            return self._send_message(int(command.params[0]))
+        return MAV_RESULT_UNSUPPORTED
 
-    def _disarm(self) -> None:
-        self.armed = False
-        self.offboard = False
-        self.landing = False
-        self.landed_at_us = None
-
-    def _on_param(self, msg: Message) -> None:
-        """The MAVLink parameter protocol: every PARAM_VALUE carries its index and the count."""
-        kind = msg.get_type()
-        if kind == "PARAM_REQUEST_LIST":
-            for index in range(len(self.parameters)):
-                self._param_value(index)
-            return
-        name = msg.param_id.rstrip("\0") if isinstance(msg.param_id, str) else ""
-        index = next((i for i, p in enumerate(self.parameters) if p.name == name), -1)
-        if kind == "PARAM_REQUEST_READ" and index < 0 and 0 <= msg.param_index < len(self.parameters):
-            index = msg.param_index
-        if index < 0:
-            return  # unknown: PX4 does not answer either
-        parameter = self.parameters[index]
-        if kind == "PARAM_SET" and parameter.set is not None:
-            parameter.set(float(msg.param_value))
-            self._status(MAV_SEVERITY_INFO, f"{parameter.name} set to {parameter.get():g}")
-        self._param_value(index)  # for a read-only one, the unchanged value says it was not set
-
-    def _param_value(self, index: int) -> None:
-        parameter = self.parameters[index]
-        self.link.send("PARAM_VALUE", param_id=parameter.name, param_value=parameter.get(),
-                       param_type=MAV_PARAM_TYPE_REAL32, param_count=len(self.parameters), param_index=index)
+    def _send_message(self, msgid: int) -> int:
+        """REQUEST_MESSAGE: ACCEPTED when the message went out, DENIED otherwise (PX4's answers)."""
+        sent = True
+        if msgid == MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            self._autopilot_version()
+        elif msgid == MAVLINK_MSG_ID_HOME_POSITION:
+            sent = self.telemetry.send_home_position()
+        elif msgid == MAVLINK_MSG_ID_SYS_STATUS:
+            self.telemetry.send_sys_status(self.now_us)
+        elif msgid == MAVLINK_MSG_ID_MISSION_CURRENT:
+            self.missions.send_current()
+        elif msgid == MAVLINK_MSG_ID_GPS_RAW_INT and self.last_fix is not None:
+            self.telemetry.send_gps_raw_int()
+        else:
+            sent = False
+        return MAV_RESULT_ACCEPTED if sent else MAV_RESULT_DENIED
 
     def _autopilot_version(self) -> None:
         self.link.send("AUTOPILOT_VERSION", capabilities=CAPABILITIES, flight_sw_version=FLIGHT_SW_VERSION,
@@ -359,45 +290,21 @@ class EmulatedBoard:
                        flight_custom_version=[0] * 8, middleware_custom_version=[0] * 8, os_custom_version=[0] * 8,
                        vendor_id=0, product_id=0, uid=self.config.system_id, uid2=[0] * 18)
 
-    # --- messages out -------------------------------------------------------------
-    def _heartbeat(self) -> None:
-        base_mode = codec.MODE_FLAG_CUSTOM | codec.MODE_FLAG_HIL | (codec.MODE_FLAG_ARMED if self.armed else 0)
-        if self.landing:
-            mode = custom_mode(PX4_MAIN_MODE_AUTO, PX4_AUTO_SUB_MODE_LAND)
-        else:
-            mode = custom_mode(PX4_MAIN_MODE_OFFBOARD if self.offboard else PX4_MAIN_MODE_POSCTL)
-        ready = self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
-        status = MAV_STATE_ACTIVE if self.armed else (MAV_STATE_STANDBY if ready else MAV_STATE_BOOT)
-        self.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
-                       custom_mode=mode, system_status=status, mavlink_version=3)
+    def _send(self, message: str, fields: dict) -> None:
+        self.link.send_fields(message, fields)
 
-    def _status(self, severity: int, text: str) -> None:
-        self.link.send("STATUSTEXT", severity=severity, text=text[:50].ljust(50, "\0"), id=0, chunk_seq=0)
+    def status(self, severity: int, text: str) -> None:
+        """STATUSTEXT; a text longer than 50 characters in chunks of one id (id 0: a text in one piece)."""
+        chunks = [text[i:i + STATUSTEXT_CHUNK] for i in range(0, len(text), STATUSTEXT_CHUNK)] or [""]
+        text_id = 0
+        if len(chunks) > 1:
+            self._text_id = self._text_id % 0xFFFF + 1
+            text_id = self._text_id
+        for seq, chunk in enumerate(chunks):
+            self.link.send("STATUSTEXT", severity=severity, text=chunk.ljust(STATUSTEXT_CHUNK, "\0"), id=text_id,
+                           chunk_seq=seq)
 
-    def _telemetry(self, t_us: int, state: VehicleState) -> None:
-        boot_ms = (t_us - (self.boot_us or t_us)) // 1000
-        roll, pitch, yaw = (float(a) for a in state.eta)
-        p, q, r = (float(w) for w in state.rates_frd)
-        self.link.send("ATTITUDE", time_boot_ms=boot_ms, roll=roll, pitch=pitch, yaw=yaw, rollspeed=p,
-                       pitchspeed=q, yawspeed=r)
-        pos, vel = state.pos_ned, state.vel_ned
-        self.link.send("LOCAL_POSITION_NED", time_boot_ms=boot_ms, x=float(pos[0]), y=float(pos[1]), z=float(pos[2]),
-                       vx=float(vel[0]), vy=float(vel[1]), vz=float(vel[2]))
-        origin = self.estimator.origin
-        if origin is not None:  # what a ground station draws on its map (PX4 streams it too)
-            lat, lon, alt = origin.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
-            self.link.send("GLOBAL_POSITION_INT", time_boot_ms=boot_ms, lat=round(lat * 1e7), lon=round(lon * 1e7),
-                           alt=round(alt * 1000), relative_alt=round(-float(pos[2]) * 1000),
-                           vx=round(float(vel[0]) * 100), vy=round(float(vel[1]) * 100), vz=round(float(vel[2]) * 100),
-                           hdg=round(math.degrees(yaw) % 360 * 100))
-        out = self.last_control
-        if out is None or not self.armed:
-            return
-        q_cmd = euler_to_quat(*(float(a) for a in out.eta_cmd))
-        thrust = min(max(out.thrust_n / (4 * self.config.vehicle.thrust_max), 0.0), 1.0)
-        self.link.send("ATTITUDE_TARGET", time_boot_ms=boot_ms, type_mask=0, q=[float(c) for c in q_cmd],
-                       body_roll_rate=0.0, body_pitch_rate=0.0, body_yaw_rate=0.0, thrust=thrust)
-        values = [float(out.internals[k]) for k in self.controller.internal_keys]
-        name = wire_name(self.controller.name).ljust(DEBUG_NAME_LENGTH, "\0")
-        self.link.send("DEBUG_FLOAT_ARRAY", time_usec=t_us, name=name, array_id=1,
-                       data=values + [0.0] * (58 - len(values)))
+    def _mission_changed(self) -> None:
+        """A new mission, a cleared one, or a new current item: AUTO.MISSION flies on from it."""
+        if self.armed and self.commander.mode is FlightMode.AUTO_MISSION:
+            self.fly(FlightMode.AUTO_MISSION)

@@ -20,6 +20,7 @@ from firmware_interface.emulator.control import Setpoint, VehicleState
 from firmware_interface.emulator.control.registry import CONTROLLERS, make_controller
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.emulator.trajectory import quintic_sample
 from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
 
 STEP_US = 4000
@@ -43,6 +44,7 @@ def compile_flight_code(config: EmulatorConfig) -> None:
         out = controller.update(state, setpoint, STEP_US * 1e-6)
     controller.reset()
     Mixer(config.vehicle).commands(out.thrust_n, out.torque_frd)
+    quintic_sample(np.zeros((3, 6)), 0.0)  # the navigator's moves
     freeze()
 
 

@@ -1,0 +1,203 @@
+"""What the board streams, on the simulation clock (in lockstep the bench then sees each step's messages with that
+step's reply): HEARTBEAT 1 Hz, EXTENDED_SYS_STATE 5 Hz, ATTITUDE, LOCAL_POSITION_NED, GLOBAL_POSITION_INT,
+ATTITUDE_TARGET and DEBUG_FLOAT_ARRAY 50 Hz; and at the rates PX4 streams them on its ground-station link,
+SYS_STATUS 1 Hz, GPS_RAW_INT 5 Hz, VFR_HUD 4 Hz, HOME_POSITION 0.5 Hz (and when it changes), MISSION_CURRENT 1 Hz.
+
+SYS_STATUS says what MAVSDK's health checks read (telemetry_impl.cpp, process_sys_status): gyro, accelerometer,
+magnetometer, barometer, GPS and the attitude/position estimate present, enabled and healthy while their data
+flow, and MAV_SYS_STATUS_PREARM_CHECK healthy when arming in the current mode would pass, as PX4 sets it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20.common import (
+    MAV_AUTOPILOT_PX4,
+    MAV_STATE_ACTIVE,
+    MAV_STATE_BOOT,
+    MAV_STATE_CRITICAL,
+    MAV_STATE_STANDBY,
+    MAV_SYS_STATUS_AHRS,
+    MAV_SYS_STATUS_PREARM_CHECK,
+    MAV_SYS_STATUS_SENSOR_3D_ACCEL,
+    MAV_SYS_STATUS_SENSOR_3D_GYRO,
+    MAV_SYS_STATUS_SENSOR_3D_MAG,
+    MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
+    MAV_SYS_STATUS_SENSOR_GPS,
+    MAV_TYPE_QUADROTOR,
+)
+
+from firmware_interface import hil_codec as codec
+from firmware_interface.emulator.commander import base_mode_flags
+from firmware_interface.emulator.control import VehicleState
+from firmware_interface.emulator.control.registry import DEBUG_NAME_LENGTH, wire_name
+from firmware_interface.emulator.geometry import euler_to_quat
+
+if TYPE_CHECKING:
+    from firmware_interface.emulator.firmware import EmulatedBoard
+
+HEARTBEAT_PERIOD_US = 1_000_000
+TELEMETRY_PERIOD_US = 20_000  # ATTITUDE, LOCAL_POSITION_NED, ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY at 50 Hz
+EXTENDED_SYS_STATE_PERIOD_US = 200_000  # 5 Hz, PX4's rate on its onboard link
+SENSORS = (MAV_SYS_STATUS_SENSOR_3D_GYRO | MAV_SYS_STATUS_SENSOR_3D_ACCEL | MAV_SYS_STATUS_SENSOR_3D_MAG
+           | MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE)
+SENSOR_TIMEOUT_US = 1_000_000  # data older than this: the sensor counts as failed
+GPS_TIMEOUT_US = 1_000_000
+
+
+@dataclass
+class Schedule:
+    """A stream's period and when it is next due (µs of simulated time)."""
+
+    period_us: int
+    next_us: int = 0
+
+    def due(self, t_us: int) -> bool:
+        if t_us < self.next_us:
+            return False
+        self.next_us = t_us + self.period_us
+        return True
+
+
+class Telemetry:
+    def __init__(self, board: EmulatedBoard) -> None:
+        self.board = board
+        self.last_heartbeat_us = -HEARTBEAT_PERIOD_US
+        self.last_extended_state_us = -EXTENDED_SYS_STATE_PERIOD_US
+        self.last_telemetry_us = -TELEMETRY_PERIOD_US
+        self.sys_status, self.gps_raw = Schedule(1_000_000), Schedule(200_000)
+        self.vfr_hud, self.home = Schedule(250_000), Schedule(2_000_000)
+
+    # --- every sensor step -------------------------------------------------------------------------------
+    def step(self, t_us: int, state: VehicleState | None) -> None:
+        board = self.board
+        if t_us - self.last_heartbeat_us >= HEARTBEAT_PERIOD_US:
+            self.last_heartbeat_us = t_us
+            self.heartbeat()
+        if t_us - self.last_extended_state_us >= EXTENDED_SYS_STATE_PERIOD_US:
+            self.last_extended_state_us = t_us
+            board.link.send("EXTENDED_SYS_STATE", vtol_state=0, landed_state=board.landed_state)
+        if t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
+            self.last_telemetry_us = t_us
+            self._attitude_and_position(t_us, state)
+            self._control_internals(t_us)
+
+    def heartbeat(self) -> None:
+        board = self.board
+        mode = board.commander.mode
+        base_mode = (codec.MODE_FLAG_CUSTOM | codec.MODE_FLAG_HIL | (codec.MODE_FLAG_ARMED if board.armed else 0)
+                     | base_mode_flags(mode))
+        if board.armed:
+            status = MAV_STATE_CRITICAL if board.commander.failsafe else MAV_STATE_ACTIVE
+        else:
+            status = MAV_STATE_STANDBY if board.settled() else MAV_STATE_BOOT
+        board.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
+                        custom_mode=int(mode), system_status=status, mavlink_version=3)
+
+    def _attitude_and_position(self, t_us: int, state: VehicleState) -> None:
+        board = self.board
+        boot_ms = (t_us - (board.boot_us or t_us)) // 1000
+        roll, pitch, yaw = (float(a) for a in state.eta)
+        p, q, r = (float(w) for w in state.rates_frd)
+        board.link.send("ATTITUDE", time_boot_ms=boot_ms, roll=roll, pitch=pitch, yaw=yaw, rollspeed=p,
+                        pitchspeed=q, yawspeed=r)
+        pos, vel = state.pos_ned, state.vel_ned
+        board.link.send("LOCAL_POSITION_NED", time_boot_ms=boot_ms, x=float(pos[0]), y=float(pos[1]),
+                        z=float(pos[2]), vx=float(vel[0]), vy=float(vel[1]), vz=float(vel[2]))
+        origin = board.local_frame()
+        if origin is not None:  # what a ground station draws on its map (PX4 streams it too)
+            lat, lon, alt = origin.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
+            home = board.home
+            relative = float(home[2] - pos[2]) if home is not None else -float(pos[2])
+            board.link.send("GLOBAL_POSITION_INT", time_boot_ms=boot_ms, lat=round(lat * 1e7), lon=round(lon * 1e7),
+                            alt=round(alt * 1000), relative_alt=round(relative * 1000),
+                            vx=round(float(vel[0]) * 100), vy=round(float(vel[1]) * 100),
+                            vz=round(float(vel[2]) * 100), hdg=round(math.degrees(yaw) % 360 * 100))
+
+    def _control_internals(self, t_us: int) -> None:
+        board = self.board
+        out = board.last_control
+        if out is None or not board.armed:
+            return
+        boot_ms = (t_us - (board.boot_us or t_us)) // 1000
+        q_cmd = euler_to_quat(*(float(a) for a in out.eta_cmd))
+        thrust = min(max(out.thrust_n / (4 * board.config.vehicle.thrust_max), 0.0), 1.0)
+        board.link.send("ATTITUDE_TARGET", time_boot_ms=boot_ms, type_mask=0, q=[float(c) for c in q_cmd],
+                        body_roll_rate=0.0, body_pitch_rate=0.0, body_yaw_rate=0.0, thrust=thrust)
+        controller = board.controller
+        values = [float(out.internals[k]) for k in controller.internal_keys]
+        name = wire_name(controller.name).ljust(DEBUG_NAME_LENGTH, "\0")
+        board.link.send("DEBUG_FLOAT_ARRAY", time_usec=t_us, name=name, array_id=1,
+                        data=values + [0.0] * (58 - len(values)))
+
+    # --- at the navigator's rate: the ground station's streams ------------------------------------------
+    def ground_station(self, t_us: int, state: VehicleState | None) -> None:
+        board = self.board
+        if self.sys_status.due(t_us):
+            self.send_sys_status(t_us)
+        if self.gps_raw.due(t_us) and board.last_fix is not None:
+            self.send_gps_raw_int()
+        if self.vfr_hud.due(t_us) and state is not None:
+            self._vfr_hud(state)
+        if self.home.due(t_us):
+            self.send_home_position()
+        board.missions.stream(t_us)
+
+    def send_sys_status(self, t_us: int) -> None:
+        board = self.board
+        sensors = SENSORS if board.last_sensor_t_us is not None and \
+            t_us - board.last_sensor_t_us < SENSOR_TIMEOUT_US else 0
+        fix = board.last_fix
+        gps = MAV_SYS_STATUS_SENSOR_GPS if fix is not None and fix.fix_type >= 3 and \
+            t_us - board.last_fix_us < GPS_TIMEOUT_US else 0
+        estimate = MAV_SYS_STATUS_AHRS if board.position_ok() else 0
+        present = SENSORS | MAV_SYS_STATUS_SENSOR_GPS | MAV_SYS_STATUS_AHRS
+        health = sensors | gps | estimate | (MAV_SYS_STATUS_PREARM_CHECK if board.armable() else 0)
+        board.link.send("SYS_STATUS", onboard_control_sensors_present=present,
+                        onboard_control_sensors_enabled=present, onboard_control_sensors_health=health, load=0,
+                        voltage_battery=0xFFFF, current_battery=-1, drop_rate_comm=0, errors_comm=0, errors_count1=0,
+                        errors_count2=0, errors_count3=0, errors_count4=0, battery_remaining=-1,
+                        onboard_control_sensors_present_extended=0, onboard_control_sensors_enabled_extended=0,
+                        onboard_control_sensors_health_extended=0)
+
+    def send_gps_raw_int(self) -> None:
+        fix = self.board.last_fix
+        assert fix is not None
+        north, east, _ = fix.vel_ned
+        speed = math.hypot(north, east)
+        self.board.link.send(
+            "GPS_RAW_INT", time_usec=fix.t_us, lat=round(fix.lat_deg * 1e7), lon=round(fix.lon_deg * 1e7),
+            alt=round(fix.alt_msl_m * 1000), eph=min(round(fix.eph_m * 100), 0xFFFF),
+            epv=min(round(fix.epv_m * 100), 0xFFFF), vel=min(round(speed * 100), 0xFFFE),
+            cog=round(math.degrees(math.atan2(east, north)) % 360 * 100), fix_type=fix.fix_type,
+            satellites_visible=fix.satellites, alt_ellipsoid=0, h_acc=round(fix.eph_m * 1000),
+            v_acc=round(fix.epv_m * 1000), vel_acc=0, hdg_acc=0, yaw=0)
+
+    def _vfr_hud(self, state: VehicleState) -> None:
+        board = self.board
+        vel = state.vel_ned
+        speed = math.hypot(float(vel[0]), float(vel[1]))
+        origin = board.local_frame()
+        altitude = origin.alt0_m - float(state.pos_ned[2]) if origin is not None else -float(state.pos_ned[2])
+        out = board.last_control
+        throttle = 0 if out is None or not board.armed else round(
+            100 * min(max(out.thrust_n / (4 * board.config.vehicle.thrust_max), 0.0), 1.0))
+        board.link.send("VFR_HUD", airspeed=speed, groundspeed=speed, alt=altitude, climb=-float(vel[2]),
+                        heading=round(math.degrees(float(state.eta[2])) % 360), throttle=throttle)
+
+    def send_home_position(self) -> bool:
+        """HOME_POSITION, once home is set; False before."""
+        board = self.board
+        home, origin = board.home, board.local_frame()
+        if home is None or origin is None:
+            return False
+        lat, lon, alt = origin.to_geodetic(float(home[0]), float(home[1]), float(home[2]))
+        q = euler_to_quat(0.0, 0.0, board.home_yaw)
+        board.link.send("HOME_POSITION", latitude=round(lat * 1e7), longitude=round(lon * 1e7),
+                        altitude=round(alt * 1000), x=float(home[0]), y=float(home[1]), z=float(home[2]),
+                        q=[float(c) for c in q], approach_x=0.0, approach_y=0.0, approach_z=0.0,
+                        time_usec=board.now_us)
+        return True

@@ -1,0 +1,143 @@
+"""The navigator's references: smooth, feasible motions the paper's controllers track.
+
+A move is a quintic polynomial per NED axis from the current reference (position, velocity, acceleration) to a
+target at rest, so position, velocity and acceleration stay continuous whatever was flown before; its duration
+keeps the peak speed and acceleration within PX4's limits for that direction (for a rest-to-rest quintic the
+peak speed is 1.875·d/T and the peak acceleration 5.774·d/T²). Yaw turns along a quintic smoothstep at no more
+than MPC_YAWRAUTO_MAX. A hold returns one fixed setpoint; a descent moves down at a constant rate and lets the
+ground stop it, as PX4's land mode does.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from firmware_interface.emulator.compiled import flight_code
+from firmware_interface.emulator.control import Setpoint
+from firmware_interface.emulator.geometry import wrap_pi
+
+PEAK_SPEED = 1.875  # max of ds/dx of the quintic smoothstep s(x) = 10x³ − 15x⁴ + 6x⁵
+PEAK_ACCEL = 10 / math.sqrt(3)  # max of |d²s/dx²|
+MIN_MOVE_S = 0.5  # the shortest move: a hold point a few centimetres off still comes smoothly
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Peak speeds (m/s), accelerations (m/s²) and yaw rate (rad/s) of a move, from PX4's MPC_* parameters."""
+
+    speed_xy: float
+    speed_up: float
+    speed_down: float
+    accel_xy: float
+    accel_up: float
+    accel_down: float
+    yaw_rate: float
+
+
+class Reference(Protocol):
+    """What the flight code tracks at each control step; `descending`: towards the ground (the land detector runs)."""
+
+    @property
+    def descending(self) -> bool: ...
+
+    def sample(self, t_us: int, dt: float) -> Setpoint: ...
+
+
+class Hold:
+    """A fixed setpoint: the same object every step."""
+
+    descending = False
+
+    def __init__(self, setpoint: Setpoint) -> None:
+        self.setpoint = setpoint
+
+    def sample(self, t_us: int, dt: float) -> Setpoint:
+        return self.setpoint
+
+
+class Descent:
+    """Down at `speed()` m/s from `start` (held horizontally) until the ground stops the vehicle; the setpoint's
+    height moves by speed·dt each step, the rate read each step (MPC_LAND_SPEED may be set during a landing)."""
+
+    descending = True
+
+    def __init__(self, start: Setpoint, speed: Callable[[], float]) -> None:
+        self.setpoint = start
+        self.speed = speed
+
+    def sample(self, t_us: int, dt: float) -> Setpoint:
+        self.setpoint.pos_ned[2] += self.speed() * dt
+        return self.setpoint
+
+
+@flight_code
+def quintic_sample(coeffs: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Position, velocity and acceleration at time t of p(t) = Σ c_k t^k, one row of six coefficients per axis."""
+    pos, vel, acc = np.empty(3), np.empty(3), np.empty(3)
+    for i in range(3):
+        c0, c1, c2, c3, c4, c5 = coeffs[i]
+        pos[i] = c0 + t * (c1 + t * (c2 + t * (c3 + t * (c4 + t * c5))))
+        vel[i] = c1 + t * (2 * c2 + t * (3 * c3 + t * (4 * c4 + t * 5 * c5)))
+        acc[i] = 2 * c2 + t * (6 * c3 + t * (12 * c4 + t * 20 * c5))
+    return pos, vel, acc
+
+
+def quintic_coefficients(p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, duration_s: float
+                         ) -> np.ndarray:
+    """Coefficients of the quintic from (p0, v0, a0) at t = 0 to p1 at rest (zero velocity and acceleration) at
+    t = T, per axis: the unique solution of the six boundary conditions."""
+    t = duration_s
+    d = p1 - p0
+    c3 = (20 * d - 12 * v0 * t - 3 * a0 * t**2) / (2 * t**3)
+    c4 = (-30 * d + 16 * v0 * t + 3 * a0 * t**2) / (2 * t**4)
+    c5 = (12 * d - 6 * v0 * t - a0 * t**2) / (2 * t**5)
+    return np.ascontiguousarray(np.column_stack((p0, v0, a0 / 2, c3, c4, c5)))
+
+
+def move_duration(start: Setpoint, target_ned: np.ndarray, limits: Limits) -> float:
+    """Long enough that a rest-to-rest move over the distance keeps every peak within `limits`, and that the
+    speed it starts with can be taken off at the horizontal acceleration limit."""
+    d = target_ned - start.pos_ned
+    horizontal, vertical = math.hypot(d[0], d[1]), float(d[2])
+    speed_z, accel_z = (limits.speed_down, limits.accel_down) if vertical > 0 else (limits.speed_up, limits.accel_up)
+    speed_now = float(np.linalg.norm(start.vel_ned))
+    return max(MIN_MOVE_S, PEAK_SPEED * horizontal / limits.speed_xy,
+               math.sqrt(PEAK_ACCEL * horizontal / limits.accel_xy), PEAK_SPEED * abs(vertical) / speed_z,
+               math.sqrt(PEAK_ACCEL * abs(vertical) / accel_z), 2 * speed_now / limits.accel_xy)
+
+
+class Move:
+    """From the reference `start` (at `start_us`) to rest at `target_ned`, turning to `yaw` (None: keep)."""
+
+    descending = False
+
+    def __init__(self, start: Setpoint, start_us: int, target_ned: np.ndarray, yaw: float | None,
+                 limits: Limits) -> None:
+        self.start_us = start_us
+        self.target_ned = np.asarray(target_ned, dtype=float)
+        self.duration_s = move_duration(start, self.target_ned, limits)
+        self.coeffs = quintic_coefficients(start.pos_ned, start.vel_ned, start.acc_ned, self.target_ned,
+                                           self.duration_s)
+        self.yaw0 = start.yaw
+        self.yaw_turn = 0.0 if yaw is None else wrap_pi(yaw - start.yaw)
+        self.yaw_s = PEAK_SPEED * abs(self.yaw_turn) / limits.yaw_rate
+        self.end_us = start_us + round(1e6 * self.duration_s)
+
+    def sample(self, t_us: int, dt: float) -> Setpoint:
+        t = max((t_us - self.start_us) * 1e-6, 0.0)
+        pos, vel, acc = quintic_sample(self.coeffs, min(t, self.duration_s))
+        return Setpoint(pos, vel, acc, self.yaw_at(t))
+
+    def yaw_at(self, t: float) -> float:
+        if self.yaw_turn == 0.0:
+            return self.yaw0
+        x = min(t / self.yaw_s, 1.0)
+        return wrap_pi(self.yaw0 + self.yaw_turn * x**3 * (10 - 15 * x + 6 * x**2))
+
+    def finished(self, t_us: int) -> bool:
+        return t_us >= self.end_us and (t_us - self.start_us) * 1e-6 >= self.yaw_s
