@@ -12,6 +12,9 @@ ROOT = Path(__file__).resolve().parent.parent
 OURS = ("hil", "plant_fmu", "firmware_interface")
 FI, EMULATOR = "firmware_interface", "firmware_interface.emulator"
 _BELOW_LOOP = {"hil.boards", "hil.host", "hil.scenario", "hil.sensors", "hil.exit_codes", "plant_fmu", FI}
+# what a front end (the command line, the pytest plugin) may import: every part of the bench below it
+_BENCH = {"hil.exit_codes", "hil.channels", "hil.host", "hil.sensors", "hil.scenario", "hil.boards", "hil.loop",
+          "hil.judge", "hil.pilots", "hil.outputs", "hil.reports", "hil.run", "hil.sweep", "plant_fmu", FI, EMULATOR}
 # unit -> the units of ours it may import (itself always). A unit is a subpackage of `hil` (hil.loop), a leaf
 # module at hil's root (hil.exit_codes), the emulator, or a top-level package.
 ALLOWED: dict[str, set[str]] = {
@@ -32,9 +35,8 @@ ALLOWED: dict[str, set[str]] = {
     "hil.reports": {"hil.outputs", "hil.channels", "hil.judge", "hil.scenario", "hil.exit_codes", FI, EMULATOR},
     "hil.run": _BELOW_LOOP | {"hil.loop", "hil.judge", "hil.pilots", "hil.outputs", "hil.channels"},
     "hil.sweep": {"hil.run", "hil.scenario", "hil.host", "hil.exit_codes"},
-    "hil.app": {"hil", *(u for u in (
-        "hil.exit_codes", "hil.channels", "hil.host", "hil.sensors", "hil.scenario", "hil.boards", "hil.loop",
-        "hil.judge", "hil.pilots", "hil.outputs", "hil.reports", "hil.run", "hil.sweep")), "plant_fmu", FI, EMULATOR},
+    "hil.app": {"hil", *_BENCH},
+    "hil.testing": _BENCH,  # the pytest plugin: a front end beside the command line, never importing it
     "hil.__main__": {"hil.app"},
 }
 

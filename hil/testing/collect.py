@@ -1,0 +1,235 @@
+"""Scenario and sweep files as pytest items: a scenario file gives one item per board and controller asked for, a
+sweep file one per sample (the first `--hil-limit`) per board. Each item flies in its setup and judges in its call,
+so that pytest reports a flight that missed its expectations as a failure, and a run that could not judge the
+flight (a bad scenario, a board that failed, a bench bug) as an error."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import pytest
+import yaml
+
+from hil.testing.settings import Board, HilSettings, run_subdir, settings_of
+
+if TYPE_CHECKING:
+    from hil.scenario.schema import Scenario
+    from hil.testing.results import HilRun
+
+YAML_SUFFIXES = (".yaml", ".yml")
+MAX_PEEK_BYTES = 1_000_000  # the scenario loader's own limit: a larger file is nobody's scenario
+
+
+def _top_keys(path: Path) -> list[str] | None:
+    """The keys of the file's top-level mapping ([] for anything else); None when it is not YAML (unreadable,
+    broken). Composed, not constructed: an alias is never expanded."""
+    try:
+        raw = path.read_bytes()
+        node = yaml.compose(raw.decode("utf-8-sig"), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError, ValueError):
+        return None
+    if not isinstance(node, yaml.MappingNode):
+        return []
+    return [str(key.value) for key, _ in node.value if isinstance(key, yaml.ScalarNode)]
+
+
+def file_kind(path: Path, named: bool) -> str | None:
+    """"sweep", "scenario" or None (not ours). A file named on the command line is always ours; one found in a
+    directory is a sweep when it has `scenario` and mostly sweep fields, a scenario when at least half its keys are
+    scenario fields besides `name` and `description`, and a YAML file that does not parse is taken as a broken
+    scenario (it would otherwise drop out of the suite unseen)."""
+    from hil.scenario.schema import Scenario
+    from hil.sweep.spec import SweepSpec
+
+    if path.stat().st_size > MAX_PEEK_BYTES:
+        return "scenario" if named else None
+    keys = _top_keys(path)
+    if keys is None:
+        return "scenario"
+    if "scenario" in keys and 2 * sum(k in SweepSpec.model_fields for k in keys) >= len(keys):
+        return "sweep"
+    fields = [k for k in keys if k in Scenario.model_fields]
+    if named or (2 * len(fields) >= len(keys) and set(fields) - {"name", "description"}):
+        return "scenario"
+    return None
+
+
+class Source(Protocol):
+    """Where an item's scenario comes from."""
+
+    controller: str | None  # the controller it flies, for `-k` (None: not known)
+
+    def load(self, directory: Path) -> Scenario:
+        """The scenario, or HilRunError naming file and field; `directory` takes any file it writes."""
+
+
+@dataclass
+class FileSource:
+    """A scenario file, loaded when collected (for its controller) and kept, problems and all."""
+
+    path: Path
+    controller: str | None = None
+    _loaded: Any = None
+
+    def __post_init__(self) -> None:
+        from hil.testing.flight import load
+        from hil.testing.results import HilRunError
+
+        try:
+            self._loaded = load(self.path)
+            self.controller = self._loaded.board.controller
+        except HilRunError as exc:
+            self._loaded = exc
+
+    def load(self, directory: Path) -> Scenario:
+        if isinstance(self._loaded, Exception):
+            raise self._loaded
+        return self._loaded
+
+
+@dataclass
+class SampleSource:
+    """A sweep's sample: its scenario written beside its run directory (`hil run` flies it again from there) and
+    loaded from that file, so that a sample the schema refuses names the file, the line and the field."""
+
+    sweep: Path
+    index: int
+    data: dict[str, Any]
+    controller: str | None = field(init=False)
+
+    def __post_init__(self) -> None:
+        board = self.data.get("board")
+        self.controller = board.get("controller") if isinstance(board, dict) else None
+
+    def load(self, directory: Path) -> Scenario:
+        from hil.testing.flight import load
+        from hil.testing.results import HilRunError
+
+        directory.mkdir(parents=True, exist_ok=True)
+        path = directory / f"{self.data.get('name', 'sample')}.yaml"
+        path.write_text(yaml.safe_dump(self.data, sort_keys=False))
+        try:
+            return load(path)
+        except HilRunError as exc:
+            raise HilRunError(f"sample {self.index} of {self.sweep}, written to {path}:\n{exc}") from None
+
+
+@dataclass
+class Unusable:
+    """A file that gives no scenario at all (a sweep file or base the bench refuses): its problems."""
+
+    problems: str
+    controller: str | None = None
+
+    def load(self, directory: Path) -> Scenario:
+        from hil.testing.results import HilRunError
+
+        raise HilRunError(self.problems)
+
+
+class HilItem(pytest.Item):
+    """One flight of one scenario on one board."""
+
+    def __init__(self, *, source: Source, board: Board, changes: dict[str, Any], **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.source, self.board, self.changes = source, board, changes
+        self.run: HilRun | None = None
+        self.extra_keyword_matches.update(k for k in (changes.get("board.controller") or source.controller,
+                                                      board.id) if k)
+
+    def setup(self) -> None:
+        from hil.exit_codes import EXIT_EXPECT_FAILED, EXIT_OK
+        from hil.testing.flight import fly, with_changes
+        from hil.testing.results import HilRunError, error_text, junit_properties
+
+        settings = settings_of(self.config)
+        directory = settings.runs_root / run_subdir(self.nodeid)
+        try:
+            scenario = with_changes(self.source.load(directory), self.changes, "--hil-seed/--hil-controller")
+        except HilRunError as exc:
+            problems = str(exc)  # reported below, outside the handler: pytest would show both exceptions
+        else:
+            problems = ""
+        if problems:
+            pytest.fail(problems, pytrace=False)
+        self.run = fly(scenario, self.board, directory, settings)
+        self.user_properties.extend(junit_properties(self.run))
+        if self.run.exit_code not in (EXIT_OK, EXIT_EXPECT_FAILED):
+            pytest.fail(error_text(self.run), pytrace=False)
+
+    def runtest(self) -> None:
+        from hil.exit_codes import EXIT_OK
+        from hil.testing.results import failure_text
+
+        assert self.run is not None, "setup flies the run"
+        if self.run.exit_code != EXIT_OK:
+            pytest.fail(failure_text(self.run), pytrace=False)
+
+    def reportinfo(self) -> tuple[Path, int | None, str]:
+        return self.path, None, f"{self.name} on {self.board.spec}"
+
+
+def _suffix(settings: HilSettings, board: Board, controller: str | None) -> str:
+    """The item's parameters in its id: the board when several are asked for, the controller when one is."""
+    parts = [board.id] if len(settings.boards) > 1 else []
+    parts += [controller] if controller else []
+    return f"[{'-'.join(parts)}]" if parts else ""
+
+
+class ScenarioFile(pytest.File):
+    def collect(self) -> Iterator[HilItem]:
+        settings = settings_of(self.config)
+        source = FileSource(self.path)
+        seed = {"seed": settings.seed} if settings.seed is not None else {}
+        for board in settings.boards:
+            for controller in settings.controllers or (None,):
+                changes = {**seed, **({"board.controller": controller} if controller else {})}
+                yield HilItem.from_parent(self, name=self.path.stem + _suffix(settings, board, controller),
+                                          source=source, board=board, changes=changes)
+
+
+class SweepFile(pytest.File):
+    """The sweep's samples as `hil sweep` expands them; --hil-seed and --hil-controller leave them as the sweep
+    draws or crosses them."""
+
+    def collect(self) -> Iterator[HilItem]:
+        from hil.scenario.loader import ScenarioError
+        from hil.sweep import SweepError, expand, load_sweep
+        from hil.sweep.design import sample_scenario
+
+        settings = settings_of(self.config)
+        try:
+            spec = load_sweep(self.path)
+            base, plan = expand(spec, settings.limit)
+        except SweepError as exc:
+            yield self._unusable(str(exc))
+            return
+        except ScenarioError as exc:
+            yield self._unusable(f"{self.path}: its base scenario {spec.scenario} is not valid:\n{exc}")
+            return
+        for sample in plan:
+            try:
+                data = sample_scenario(base, spec, sample)
+                source: Source = SampleSource(self.path, sample.index, data)
+                name = str(data.get("name"))
+            except KeyError as exc:
+                source, name = Unusable(f"{self.path}: sample {sample.index}: {exc.args[0]}"), f"s{sample.index:05d}"
+            for board in settings.boards:
+                yield HilItem.from_parent(self, name=name + _suffix(settings, board, None), source=source,
+                                          board=board, changes={})
+
+    def _unusable(self, problems: str) -> HilItem:
+        """One item for the whole file, whose setup reports why it gives no samples."""
+        return HilItem.from_parent(self, name=self.path.stem, source=Unusable(problems),
+                                   board=settings_of(self.config).boards[0], changes={})
+
+
+def collect_file(path: Path, parent: pytest.Collector) -> pytest.File | None:
+    """The collector for a YAML file the session asked for, or None when the file is not a scenario or a sweep."""
+    kind = file_kind(path, named=parent.session.isinitpath(path))
+    if kind == "sweep":
+        return SweepFile.from_parent(parent, path=path)
+    return ScenarioFile.from_parent(parent, path=path) if kind == "scenario" else None
