@@ -21,7 +21,7 @@ from pydantic import ValidationError
 
 from hil.scenario.loader import ScenarioError, YamlPath, load_scenario, located_problems, read_yaml
 from hil.sweep import results
-from hil.sweep.check import sweep_problems, validate_samples
+from hil.sweep.check import Invalid, sweep_problems, validate_samples
 from hil.sweep.design import Sample, samples
 from hil.sweep.execute import (
     RESULT,
@@ -36,7 +36,8 @@ from hil.sweep.execute import (
 from hil.sweep.options import option_problems
 from hil.sweep.spec import SweepSpec
 
-__all__ = ["ClusterUnreachable", "SweepError", "SweepOutcome", "load_sweep", "run_spec", "run_sweep"]
+__all__ = ["ClusterUnreachable", "SweepError", "SweepOutcome", "load_sweep", "run_spec", "run_sweep",
+           "sample_scenarios"]
 
 SECTIONS = ("overrides", "vary", "cross")  # the sweep's keys that name scenario fields
 
@@ -95,17 +96,22 @@ def _base(spec: SweepSpec) -> dict[str, Any]:
     return read_yaml(spec.scenario)[1]
 
 
+def sample_scenarios(spec: SweepSpec, plan: list[Sample]) -> tuple[dict[int, dict[str, Any]], dict[int, list[Invalid]]]:
+    """Each valid sample's scenario data by index, named `<base>-sNNNNN` as its run directory and results row are,
+    and each invalid sample's reasons: what `hil sweep` flies and what the pytest plugin collects. SweepError when
+    the sweep file itself is wrong, ScenarioError when its base scenario is."""
+    valid, invalid = validate_samples(_base(spec), spec, plan)
+    problems = sweep_problems(spec, plan, invalid)
+    if problems:
+        raise SweepError.of(ScenarioError(problems))
+    return {i: {**data, "name": f"{data.get('name', spec.name)}-s{i:05d}"} for i, data in valid.items()}, invalid
+
+
 def _tasks(spec: SweepSpec, plan: list[Sample], done: dict[int, dict[str, Any]],
            out: Path) -> tuple[list[SampleTask], list[dict[str, Any]]]:
     """What to fly, and the results of the invalid samples; SweepError when the sweep file itself is wrong."""
-    todo = [s for s in plan if s.index not in done]
-    valid, invalid = validate_samples(_base(spec), spec, todo)
-    problems = sweep_problems(spec, todo, invalid)
-    if problems:
-        raise SweepError.of(ScenarioError(problems))
-    tasks = [SampleTask(s.index, yaml.safe_dump({**valid[s.index], "name": f"{valid[s.index].get('name', spec.name)}"
-                                                                           f"-s{s.index:05d}"}, sort_keys=False),
-                        str(sample_dir(out, s.index))) for s in todo if s.index in valid]
+    named, invalid = sample_scenarios(spec, [s for s in plan if s.index not in done])
+    tasks = [SampleTask(i, yaml.safe_dump(data, sort_keys=False), str(sample_dir(out, i))) for i, data in named.items()]
     failures = [{"index": i, "exit_code": 2, "reason": f"invalid sample: {'; '.join(r.reason for r in reasons[:3])}",
                  "wall_s": 0.0, "run_dir": "", "metrics": {}} for i, reasons in invalid.items()]
     return tasks, failures

@@ -20,41 +20,38 @@ if TYPE_CHECKING:
     from hil.testing.results import HilRun
 
 YAML_SUFFIXES = (".yaml", ".yml")
-MAX_PEEK_BYTES = 1_000_000  # the scenario loader's own limit: a larger file is nobody's scenario
 
 
 def _top_keys(path: Path) -> list[str] | None:
-    """The keys of the file's top-level mapping ([] for anything else); None when it is not YAML (unreadable,
-    broken). Composed, not constructed: an alias is never expanded."""
+    """The keys of the file's top-level mapping ([] for anything else); None when it is not YAML the scenario
+    loader reads (broken, a duplicate key, an alias bomb: read within the loader's bounds)."""
+    from hil.scenario.loader import ScenarioError, read_yaml
+
     try:
-        raw = path.read_bytes()
-        node = yaml.compose(raw.decode("utf-8-sig"), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError, RecursionError, ValueError):
+        data = read_yaml(path)[1]
+    except ScenarioError:
         return None
-    if not isinstance(node, yaml.MappingNode):
-        return []
-    return [str(key.value) for key, _ in node.value if isinstance(key, yaml.ScalarNode)]
+    return [str(key) for key in data] if isinstance(data, dict) else []
 
 
 def file_kind(path: Path, named: bool) -> str | None:
     """"sweep", "scenario" or None (not ours). A file named on the command line is always ours; one found in a
-    directory is a sweep when it has `scenario` and mostly sweep fields, a scenario when at least half its keys are
-    scenario fields besides `name` and `description`, and a YAML file that does not parse is taken as a broken
-    scenario (it would otherwise drop out of the suite unseen)."""
+    directory is a sweep when it has `scenario` and at least half its keys are sweep fields, a scenario when at
+    least half its keys are scenario fields (a workflow's `name`, `on`, `jobs` is not), and a YAML file the loader
+    refuses is taken as a broken scenario (it would otherwise drop out of the suite unseen)."""
+    from hil.scenario.loader import MAX_BYTES
     from hil.scenario.schema import Scenario
     from hil.sweep.spec import SweepSpec
 
-    if path.stat().st_size > MAX_PEEK_BYTES:
+    if path.stat().st_size > MAX_BYTES:  # nobody's scenario
         return "scenario" if named else None
     keys = _top_keys(path)
     if keys is None:
         return "scenario"
     if "scenario" in keys and 2 * sum(k in SweepSpec.model_fields for k in keys) >= len(keys):
         return "sweep"
-    fields = [k for k in keys if k in Scenario.model_fields]
-    if named or (2 * len(fields) >= len(keys) and set(fields) - {"name", "description"}):
-        return "scenario"
-    return None
+    fields = sum(k in Scenario.model_fields for k in keys)
+    return "scenario" if named or (fields and 2 * fields >= len(keys)) else None
 
 
 class Source(Protocol):
@@ -192,39 +189,30 @@ class ScenarioFile(pytest.File):
 
 
 class SweepFile(pytest.File):
-    """The sweep's samples as `hil sweep` expands them; --hil-seed and --hil-controller leave them as the sweep
-    draws or crosses them."""
+    """The sweep's samples, expanded and checked as `hil sweep` does; --hil-seed and --hil-controller leave them as
+    the sweep draws or crosses them."""
 
     def collect(self) -> Iterator[HilItem]:
         from hil.scenario.loader import ScenarioError
-        from hil.sweep import SweepError, expand, load_sweep
-        from hil.sweep.design import sample_scenario
+        from hil.sweep import SweepError, load_sweep, sample_scenarios
+        from hil.sweep.design import samples
 
         settings = settings_of(self.config)
         try:
             spec = load_sweep(self.path)
-            base, plan = expand(spec, settings.limit)
-        except SweepError as exc:
-            yield self._unusable(str(exc))
-            return
-        except ScenarioError as exc:
-            yield self._unusable(f"{self.path}: its base scenario {spec.scenario} is not valid:\n{exc}")
+            plan = samples(spec)[:settings.limit]
+            named, invalid = sample_scenarios(spec, plan)
+        except (SweepError, ScenarioError) as exc:
+            yield HilItem.from_parent(self, name=self.path.stem, source=Unusable(str(exc)), board=settings.boards[0],
+                                      changes={})
             return
         for sample in plan:
-            try:
-                data = sample_scenario(base, spec, sample)
-                source: Source = SampleSource(self.path, sample.index, data)
-                name = str(data.get("name"))
-            except KeyError as exc:
-                source, name = Unusable(f"{self.path}: sample {sample.index}: {exc.args[0]}"), f"s{sample.index:05d}"
+            source: Source = SampleSource(self.path, sample.index, named[sample.index]) if sample.index in named \
+                else Unusable(f"{self.path}: sample {sample.index} ({sample.values}) is not a valid scenario: "
+                              + "; ".join(reason.reason for reason in invalid[sample.index]))
             for board in settings.boards:
-                yield HilItem.from_parent(self, name=name + _suffix(settings, board, None), source=source,
-                                          board=board, changes={})
-
-    def _unusable(self, problems: str) -> HilItem:
-        """One item for the whole file, whose setup reports why it gives no samples."""
-        return HilItem.from_parent(self, name=self.path.stem, source=Unusable(problems),
-                                   board=settings_of(self.config).boards[0], changes={})
+                yield HilItem.from_parent(self, name=f"s{sample.index:05d}" + _suffix(settings, board, None),
+                                          source=source, board=board, changes={})
 
 
 def collect_file(path: Path, parent: pytest.Collector) -> pytest.File | None:

@@ -57,6 +57,7 @@ def with_changes(scenario: Scenario, changes: Mapping[str, Any], given_by: str) 
     sweep names them) and validated again; HilRunError naming the field and what gave it otherwise."""
     from pydantic import ValidationError
 
+    from hil.scenario.loader import describe
     from hil.sweep.design import set_path
 
     if not changes:
@@ -66,10 +67,10 @@ def with_changes(scenario: Scenario, changes: Mapping[str, Any], given_by: str) 
         for path, value in changes.items():
             set_path(data, path, value)
         return Scenario.model_validate(data)
-    except KeyError as exc:
-        raise HilRunError(f"{scenario.name}: {given_by}: {exc.args[0]}") from None
+    except KeyError as exc:  # a path to no field (PathError)
+        raise HilRunError(f"{scenario.name}: {given_by}: {exc}") from None
     except ValidationError as exc:
-        raise HilRunError("\n".join(f"{scenario.name}: {given_by}: {'.'.join(map(str, e['loc']))}: {e['msg']}"
+        raise HilRunError("\n".join(f"{scenario.name}: {given_by}: {'.'.join(map(str, e['loc']))}: {describe(e)}"
                                     for e in exc.errors(include_url=False))) from None
 
 
