@@ -7,13 +7,18 @@ from __future__ import annotations
 
 import json
 import re
+import signal
+import subprocess
+import sys
 import threading
 from itertools import combinations
 from pathlib import Path
 
 import pytest
+from mcap.reader import make_reader
 
 from hil.outputs.telemetry import subscribe
+from tests.support.cli_runs import wait_flying
 from tests.support.ports import free_port
 from tests.support.pytest_sessions import junit_cases, run_pytest, short_hover
 
@@ -108,6 +113,31 @@ def test_xdist_flies_items_side_by_side_each_on_its_own_pty_and_zenoh_key(tmp_pa
     for run_id in ours:
         assert summaries[run_id]["metrics"]["exit_code"] == 0
         assert state[run_id] == sorted(set(state[run_id])), run_id  # one run's samples, none from another
+
+
+def test_a_sigterm_mid_flight_lands_the_run_and_ends_the_session(tmp_path):
+    """A CI job cancelled (SIGTERM to pytest): the run in flight ends as `hil run` ends on it, its files closed (the
+    recording reads to its end), the emulator stopped, and pytest stops as interrupted."""
+    short_hover(tmp_path, "long", duration_s=120, why=HOLDS)
+    session = subprocess.Popen([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--hil", "long.yaml",
+                                "--hil-runs", "out", "--hil-report", "none"], cwd=tmp_path, stdout=subprocess.PIPE,
+                               stderr=subprocess.STDOUT, text=True)
+    try:
+        wait_flying(tmp_path / "out" / "long.yaml" / "long")
+        session.send_signal(signal.SIGTERM)
+        output, _ = session.communicate(timeout=60)
+    finally:
+        session.kill()
+    assert session.returncode == pytest.ExitCode.INTERRUPTED, output
+    assert "KeyboardInterrupt: interrupted (SIGTERM)" in output
+    (run,) = run_dirs(tmp_path / "out")
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert (metrics["exit_code"], metrics["reason"]) == (130, "interrupted (SIGTERM)")
+    with open(run / "recording.mcap", "rb") as file:
+        states = sum(1 for _, channel, _ in make_reader(file).iter_messages() if channel.topic == "hil/state")
+    assert states > 250  # over a second of flight at 250 Hz, read through the file's own index
+    processes = subprocess.run(["ps", "-eo", "args"], capture_output=True, text=True).stdout.splitlines()
+    assert not [line for line in processes if "firmware_interface.emulator" in line and str(run) in line]
 
 
 USER_TEST = '''\

@@ -17,7 +17,9 @@ pytestmark = pytest.mark.slow  # each session starts an interpreter and pytest (
 ROOT = Path(__file__).resolve().parent.parent
 BAD_SCENARIOS = [ROOT / "tests" / "data" / "bad_scenarios" / f"{name}.yaml" for name in (
     "duration_zero", "board_config_typo", "unknown_keys_30", "top_level_list", "comment_only", "billion_laughs",
-    "duplicate_duration", "expr_import", "python_object_tag", "unclosed_bracket", "seed_negative")]
+    "duplicate_duration", "expr_import", "python_object_tag", "unclosed_bracket", "seed_negative")] + [
+    ROOT / "tests" / "data" / "bad_sweeps" / f"{name}.yaml" for name in (
+        "cross_unknown_controller", "scenario_invalid", "uniform_every_draw_invalid", "dimension_typo")]
 UNRELATED_TEST = "def test_unrelated():\n    assert 1 + 1 == 2\n"
 SWEEP = """\
 name: mc
@@ -101,10 +103,11 @@ def test_a_wrong_option_stops_the_session_with_one_line(tmp_path, capsys, option
     assert says in err and "Traceback" not in err, err
 
 
-def test_malformed_scenarios_are_errors_naming_their_file_and_field(tmp_path):
-    """Files of the bad-scenario corpus (each file's first line says what `hil check` must say), one of each way to
-    be wrong that a directory walk might take for something else: as test items, each is an error (not a failure)
-    whose text names the file and holds that line, with no traceback and nothing flown."""
+def test_malformed_scenarios_and_sweeps_are_errors_naming_their_file_and_field(tmp_path):
+    """Files of the bad-scenario and bad-sweep corpora (each file's first line says what `hil check` or `hil sweep`
+    must say), among them the ways to be wrong that a directory walk might take for something else: as test items,
+    each is one error (not a failure) whose text names the file and holds that line, with no traceback and nothing
+    flown."""
     result = run_pytest(tmp_path, "--hil", f"--junitxml={tmp_path / 'r.xml'}", *map(str, BAD_SCENARIOS))
     cases = junit_cases(tmp_path / "r.xml")
     assert len(cases) == len(BAD_SCENARIOS), result.stdout[-2000:]

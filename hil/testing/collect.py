@@ -202,8 +202,14 @@ class SweepFile(pytest.File):
             spec = load_sweep(self.path)
             plan = samples(spec)[:settings.limit]
             named, invalid = sample_scenarios(spec, plan)
-        except (SweepError, ScenarioError) as exc:
-            yield HilItem.from_parent(self, name=self.path.stem, source=Unusable(str(exc)), board=settings.boards[0],
+        except SweepError as exc:
+            problems = str(exc)
+        except ScenarioError as exc:
+            problems = f"{self.path}: its base scenario is not valid:\n{exc}"
+        else:
+            problems = ""
+        if problems:
+            yield HilItem.from_parent(self, name=self.path.stem, source=Unusable(problems), board=settings.boards[0],
                                       changes={})
             return
         for sample in plan:

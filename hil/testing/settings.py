@@ -62,29 +62,35 @@ def settings_of(config: pytest.Config) -> HilSettings:
 
 
 def _read(config: pytest.Config) -> HilSettings:
-    from firmware_interface.emulator.control.registry import CONTROLLERS
-
-    specs = config.getoption("hil_board") or config.getini("hil_board") or ["emulator"]
-    controllers = tuple(c.strip() for given in config.getoption("hil_controller") or [] for c in given.split(","))
-    unknown = [c for c in controllers if c not in CONTROLLERS]
-    if unknown or "" in controllers:
-        raise pytest.UsageError(f"--hil-controller {','.join(controllers)}: unknown controller(s) "
-                                f"{', '.join(unknown) or '(empty)'}; expected {', '.join(CONTROLLERS)}")
     limit = config.getoption("hil_limit")
     if limit is not None and limit < 1:
         raise pytest.UsageError(f"--hil-limit {limit}: expected a number of samples, at least 1")
     where = config.invocation_params.dir
     runs = config.getoption("hil_runs") or config.getini("hil_runs") or "runs"
     px4 = config.getoption("hil_px4") or config.getini("hil_px4")
-    return HilSettings(collects(config), _boards(specs), tuple(dict.fromkeys(controllers)),
-                       config.getoption("hil_seed"), where / runs, limit, config.getoption("hil_report") or "all",
+    return HilSettings(collects(config), _boards(config.getoption("hil_board") or config.getini("hil_board")),
+                       _controllers(config.getoption("hil_controller") or []), config.getoption("hil_seed"),
+                       where / runs, limit, config.getoption("hil_report") or "all",
                        bool(config.getoption("hil_telemetry")), where / px4 if px4 else None)
 
 
-def _boards(specs: list[str]) -> tuple[Board, ...]:
-    """The boards named, each checked; ids are the scheme (`emulator`, `px4`), or the whole spec where two boards
-    share one."""
-    specs = list(dict.fromkeys(specs))
+def _controllers(given: list[str]) -> tuple[str, ...]:
+    """The controllers of --hil-controller (repeated, or comma-separated), each checked, in order, once each."""
+    from firmware_interface.emulator.control.registry import CONTROLLERS
+
+    controllers = tuple(dict.fromkeys(c.strip() for text in given for c in text.split(",")))
+    unknown = [c for c in controllers if c not in CONTROLLERS]
+    if unknown:
+        raise pytest.UsageError(f"--hil-controller {','.join(controllers)}: unknown controller(s) "
+                                f"{', '.join(c or repr(c) for c in unknown)}; "
+                                f"expected {', '.join(CONTROLLERS)}")
+    return controllers
+
+
+def _boards(given: list[str]) -> tuple[Board, ...]:
+    """The boards named (the emulator when none is), each checked; ids are the scheme (`emulator`, `px4`), or the
+    whole spec where two boards share one."""
+    specs = list(dict.fromkeys(given or ["emulator"]))
     schemes = [spec.partition(":")[0] for spec in specs]
     try:
         return tuple(Board.named(spec, "--hil-board", scheme if schemes.count(scheme) == 1 else spec)
