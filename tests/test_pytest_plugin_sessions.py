@@ -58,7 +58,7 @@ def test_the_plugin_collects_nothing_unless_asked_and_hil_in_the_ini_file_asks(p
 
 
 def test_the_projects_own_suite_is_collected_as_without_the_plugin():
-    """tests/data holds ~190 scenario and sweep files (the bad-input corpora): none becomes a test unless asked."""
+    """tests/data holds the bad-scenario and bad-sweep corpora: none of their files becomes a test unless asked."""
     result = run_pytest(ROOT, "--collect-only", "-q", "tests/data", "tests/test_import_rules.py")
     assert collected(result) and all(item.startswith("tests/test_import_rules.py::") for item in collected(result))
 

@@ -35,8 +35,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     group.addoption("--hil-px4", metavar="DIR", help="the PX4 SITL build (or package directory) hil_px4 flies")
     parser.addini("hil", type="bool", default=False, help="collect scenario and sweep YAML files as tests")
     parser.addini("hil_board", type="linelist", help="default boards (as --hil-board)")
-    parser.addini("hil_runs", type="string", default="", help="default run directory root (as --hil-runs)")
-    parser.addini("hil_px4", type="string", default="", help="default PX4 build for hil_px4 (as --hil-px4)")
+    parser.addini("hil_runs", type="paths", help="default run directory root (as --hil-runs), from the ini file's "
+                                                "directory")
+    parser.addini("hil_px4", type="paths", help="default PX4 build for hil_px4 (as --hil-px4), from the ini file's "
+                                               "directory")
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -65,13 +65,20 @@ def _read(config: pytest.Config) -> HilSettings:
     limit = config.getoption("hil_limit")
     if limit is not None and limit < 1:
         raise pytest.UsageError(f"--hil-limit {limit}: expected a number of samples, at least 1")
-    where = config.invocation_params.dir
-    runs = config.getoption("hil_runs") or config.getini("hil_runs") or "runs"
-    px4 = config.getoption("hil_px4") or config.getini("hil_px4")
     return HilSettings(collects(config), _boards(config.getoption("hil_board") or config.getini("hil_board")),
                        _controllers(config.getoption("hil_controller") or []), config.getoption("hil_seed"),
-                       where / runs, limit, config.getoption("hil_report") or "all",
-                       bool(config.getoption("hil_telemetry")), where / px4 if px4 else None)
+                       _path(config, "hil_runs") or config.invocation_params.dir / "runs", limit,
+                       config.getoption("hil_report") or "all", bool(config.getoption("hil_telemetry")),
+                       _path(config, "hil_px4"))
+
+
+def _path(config: pytest.Config, name: str) -> Path | None:
+    """A path option: from the command line relative to where pytest started, from the ini file relative to it."""
+    given = config.getoption(name)
+    if given:
+        return config.invocation_params.dir / given
+    listed = config.getini(name)
+    return Path(listed[0]) if listed else None
 
 
 def _controllers(given: list[str]) -> tuple[str, ...]:
