@@ -138,11 +138,12 @@ def test_fields_are_replaced_by_their_path_and_validated_again(tmp_path):
 
 def test_loading_the_plugin_imports_nothing_of_the_bench():
     """pytest imports the plugin in every session of an environment with hil-bench installed: it must not bring
-    in numpy, fmpy, pydantic, Zenoh or the bench's modules (the sessions that do not ask pay nothing)."""
+    in numpy, fmpy, pydantic, Zenoh or the bench's modules, the exit codes' enum aside (the sessions that do not
+    ask pay nothing)."""
     code = ("import sys, pytest; before = set(sys.modules); import hil.testing.plugin; "
             "print(' '.join(sorted(set(sys.modules) - before)))")
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     ours = {m for m in loaded if m.split(".")[0] in ("hil", "plant_fmu", "firmware_interface")}
-    assert ours == {"hil", "hil.testing", "hil.testing.collect", "hil.testing.fixtures", "hil.testing.plugin",
-                    "hil.testing.settings"}
+    assert ours == {"hil", "hil.exit_codes", "hil.testing", "hil.testing.collect", "hil.testing.fixtures",
+                    "hil.testing.plugin", "hil.testing.results", "hil.testing.settings"}
     assert not {m for m in loaded if m.split(".")[0] in ("numpy", "fmpy", "pydantic", "zenoh", "matplotlib")}

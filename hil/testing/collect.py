@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import pytest
 import yaml
 
+from hil.testing.results import HilRunError
 from hil.testing.settings import Board, HilSettings, run_subdir, settings_of
 
 if TYPE_CHECKING:
@@ -69,21 +70,22 @@ class FileSource:
 
     path: Path
     controller: str | None = None
-    _loaded: Any = None
+    _loaded: Scenario | HilRunError | None = None
 
     def __post_init__(self) -> None:
         from hil.testing.flight import load
-        from hil.testing.results import HilRunError
 
         try:
-            self._loaded = load(self.path)
-            self.controller = self._loaded.board.controller
+            scenario = load(self.path)
         except HilRunError as exc:
             self._loaded = exc
+        else:
+            self._loaded, self.controller = scenario, scenario.board.controller
 
     def load(self, directory: Path) -> Scenario:
-        if isinstance(self._loaded, Exception):
+        if isinstance(self._loaded, HilRunError):
             raise self._loaded
+        assert self._loaded is not None, "loaded when collected"
         return self._loaded
 
 
@@ -98,12 +100,14 @@ class SampleSource:
     controller: str | None = field(init=False)
 
     def __post_init__(self) -> None:
+        from hil.scenario.schema import Scenario
+
         board = self.data.get("board")
-        self.controller = board.get("controller") if isinstance(board, dict) else None
+        chosen = board.get("controller") if isinstance(board, dict) else None
+        self.controller = chosen or Scenario.model_fields["board"].default.controller
 
     def load(self, directory: Path) -> Scenario:
         from hil.testing.flight import load
-        from hil.testing.results import HilRunError
 
         directory.mkdir(parents=True, exist_ok=True)
         path = directory / f"{self.data.get('name', 'sample')}.yaml"
@@ -122,8 +126,6 @@ class Unusable:
     controller: str | None = None
 
     def load(self, directory: Path) -> Scenario:
-        from hil.testing.results import HilRunError
-
         raise HilRunError(self.problems)
 
 
@@ -140,7 +142,7 @@ class HilItem(pytest.Item):
     def setup(self) -> None:
         from hil.exit_codes import EXIT_EXPECT_FAILED, EXIT_OK
         from hil.testing.flight import fly, with_changes
-        from hil.testing.results import HilRunError, error_text, junit_properties
+        from hil.testing.results import error_text, junit_properties
 
         settings = settings_of(self.config)
         directory = settings.runs_root / run_subdir(self.nodeid)

@@ -2,7 +2,8 @@
 `hil` in the `pytest11` group; `-p no:hil` leaves it out). It collects nothing unless the session asks: `--hil`,
 or `hil = true` in the ini file (`[tool.pytest.ini_options]` of pyproject.toml). Then every scenario and sweep YAML
 file under the paths given is a test: `pytest --hil scenarios/ --junitxml=results.xml`. Its fixtures (`hil_run`,
-`hil_emulator`, `hil_px4`) are there for any test that asks for them. Nothing of the bench is imported until then.
+`hil_emulator`, `hil_px4`) are there for any test that asks for them. Nothing of the bench but its exit codes is
+imported until then.
 """
 
 from __future__ import annotations
