@@ -201,22 +201,23 @@ class Commander:
                 and board.health.manual.throttle > THROTTLE_ABOVE_CENTER:
             board.status(MAV_SEVERITY_CRITICAL, "Arming denied: throttle above center")
             return MAV_RESULT_TEMPORARILY_REJECTED
-        if not self._healthy_to_arm():
+        if not self.can_arm():
+            if self._needs_data_link():
+                board.status(MAV_SEVERITY_WARNING, "Preflight Fail: No connection to the ground control station")
             board.status(MAV_SEVERITY_CRITICAL, "Arming denied: Resolve system health failures first")
             return MAV_RESULT_TEMPORARILY_REJECTED
         board.arm()
         return MAV_RESULT_ACCEPTED
 
-    def _healthy_to_arm(self) -> bool:
-        """PX4's arming checks the emulator has: the mode, the data link when NAV_DLL_ACT wants one, a battery not
-        yet critical (HealthAndArmingChecks: rcAndDataLinkCheck, batteryCheck, modeCheck)."""
-        board = self.board
-        if board.params["NAV_DLL_ACT"] and board.health.gcs_lost:
-            board.status(MAV_SEVERITY_WARNING, "Preflight Fail: No connection to the ground control station")
-            return False
-        if board.health.battery_warning in ("critical", "emergency"):
+    def can_arm(self) -> bool:
+        """PX4's arming checks the emulator has besides the estimator's: the mode, the data link when NAV_DLL_ACT
+        wants one, a battery not yet critical (HealthAndArmingChecks: modeCheck, rcAndDataLinkCheck, batteryCheck)."""
+        if self._needs_data_link() or self.board.health.battery_warning in ("critical", "emergency"):
             return False
         return self.mode not in PREVENTS_ARMING and self.can_run(self.mode)
+
+    def _needs_data_link(self) -> bool:
+        return bool(self.board.params["NAV_DLL_ACT"]) and self.board.health.gcs_lost
 
     # --- commands ----------------------------------------------------------------------------------------
     def _takeoff(self, command: Command) -> int:

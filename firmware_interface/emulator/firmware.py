@@ -238,9 +238,7 @@ class EmulatedBoard(Flight):
 
     def armable(self) -> bool:
         """Whether arming in the current mode would pass now (SYS_STATUS's PREARM_CHECK)."""
-        commander = self.commander
-        return self.settled() and commander.mode not in (FlightMode.AUTO_RTL, FlightMode.AUTO_LAND) \
-            and commander.can_run(commander.mode)
+        return self.settled() and self.commander.can_arm()
 
     def manual_control_fresh(self) -> bool:
         """Stick input from a ground station within COM_RC_LOSS_T."""
