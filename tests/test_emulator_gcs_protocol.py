@@ -10,6 +10,7 @@ import time
 from itertools import pairwise
 
 import pytest
+from pymavlink.dialects.v20 import common
 from pymavlink.dialects.v20.common import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_CHANGE_SPEED,
@@ -207,3 +208,23 @@ def test_armed_commands_and_the_streams_a_ground_station_reads(world):
     assert gps.fix_type == 3 and abs(gps.lat - world.geodetic(0, 0)[0]) < 100
     assert world.messages("EXTENDED_SYS_STATE")[-1].landed_state == 1
     assert not math.isnan(world.messages("VFR_HUD")[-1].alt)
+
+
+def test_two_ground_stations_are_each_answered(world):
+    """QGroundControl (255/190) and MAVSDK (245/190) on the same link: each command's ACK and each transfer's
+    messages are addressed to the system that asked; a second transfer while one runs is refused as PX4 does."""
+    other = common.MAVLink(None, srcSystem=245, srcComponent=190)  # a second ground station on the same link
+    world.run(0.5)
+    world.link.transport.write(other.command_long_encode(1, 1, MAV_CMD_SET_MESSAGE_INTERVAL, 0, 33, 1e5, 0, 0, 0, 0,
+                                                        0).pack(other))
+    world.command(MAV_CMD_DO_CHANGE_SPEED, 1, 3, -1)
+    world.run(0.1)
+    acks = {(m.command, m.target_system) for m in world.messages("COMMAND_ACK")}
+    assert {(MAV_CMD_SET_MESSAGE_INTERVAL, 245), (MAV_CMD_DO_CHANGE_SPEED, 255)} <= acks
+    world.upload(waypoints(world, [(5, 0), (5, 5)]))
+    world.send(world.gcs.mission_count_encode(1, 1, 2, 0))  # QGroundControl starts another upload...
+    world.link.transport.write(other.mission_request_list_encode(1, 1, 0).pack(other))  # ...MAVSDK asks a list
+    replies = world.pump(0.3)
+    requests = [m for m in replies if m.get_type() in ("MISSION_REQUEST", "MISSION_REQUEST_INT")]
+    assert requests and all(m.target_system == 255 for m in requests)
+    assert "Mission download request ignored, already active" in world.texts()

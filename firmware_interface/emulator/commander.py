@@ -43,6 +43,7 @@ from pymavlink.dialects.v20.common import (
     MAV_RESULT_UNSUPPORTED,
     MAV_SEVERITY_CRITICAL,
     MAV_SEVERITY_INFO,
+    MAV_SEVERITY_WARNING,
 )
 
 from firmware_interface import hil_codec as codec
@@ -64,6 +65,7 @@ if TYPE_CHECKING:
     from firmware_interface.emulator.firmware import EmulatedBoard
 
 PREVENTS_ARMING = (FlightMode.AUTO_RTL, FlightMode.AUTO_LAND)
+THROTTLE_ABOVE_CENTER = 0.2  # Commander.cpp: manual_control_setpoint.throttle > 0.2
 _GLOBAL_FRAMES = (MAV_FRAME_GLOBAL, MAV_FRAME_GLOBAL_INT, MAV_FRAME_GLOBAL_RELATIVE_ALT,
                   MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
 _AUTO_SUB_MODES = {PX4_AUTO_SUB_MODE_TAKEOFF: FlightMode.AUTO_TAKEOFF, PX4_AUTO_SUB_MODE_LOITER: FlightMode.AUTO_LOITER,
@@ -118,8 +120,9 @@ def base_mode_flags(mode: FlightMode) -> int:
 class Commander:
     def __init__(self, board: EmulatedBoard) -> None:
         self.board = board
-        self.mode = FlightMode.POSCTL
-        self.failsafe = False  # a failsafe chose the mode (HEARTBEAT says MAV_STATE_CRITICAL while armed)
+        self.mode = FlightMode.POSCTL  # the mode flown (HEARTBEAT's)
+        self.user_mode = FlightMode.POSCTL  # the mode the user chose (PX4's user intention): a failsafe overrides
+        self.failsafe = False  # a failsafe chose the mode flown
         self._handlers: dict[int, Callable[[Command], int]] = {
             MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm, MAV_CMD_NAV_TAKEOFF: self._takeoff,
             MAV_CMD_NAV_LAND: self._land, MAV_CMD_NAV_RETURN_TO_LAUNCH: self._return,
@@ -152,15 +155,25 @@ class Commander:
             if source_component == MAV_COMP_ID_MISSIONPLANNER:
                 self.board.status(MAV_SEVERITY_CRITICAL, f"Switching to {mode.ui_name} is currently not available")
             return MAV_RESULT_TEMPORARILY_REJECTED
-        if mode is not self.mode or mode is FlightMode.AUTO_TAKEOFF:  # the same mode again: no transition (a
-            self.enter(mode)  # take-off command, though, sets a new altitude)
+        self.user_mode = mode
+        self.board.failsafes.user_mode_changed()
+        # the same mode again is no transition (a take-off command, though, sets a new altitude)
+        if mode is not self.mode or self.failsafe or mode is FlightMode.AUTO_TAKEOFF:
+            self.enter(mode)
         return MAV_RESULT_ACCEPTED
 
-    def enter(self, mode: FlightMode, failsafe: bool = False) -> None:
-        """Switch to `mode` and, armed, start flying it."""
+    def enter(self, mode: FlightMode, failsafe: bool = False, blind: bool = False) -> None:
+        """Fly `mode` (armed, from now on); a failsafe's choice leaves the user's mode as it is."""
         self.mode, self.failsafe = mode, failsafe
+        if not failsafe:
+            self.user_mode = mode
         if self.board.armed:
-            self.board.fly(mode)
+            self.board.fly(mode, blind)
+
+    def reset(self, mode: FlightMode = FlightMode.POSCTL) -> None:
+        """The mode after a disarm or a landing (see the module's docstring)."""
+        self.mode = self.user_mode = mode
+        self.failsafe = False
 
     # --- arming ------------------------------------------------------------------------------------------
     def _arm_disarm(self, command: Command) -> int:
@@ -184,11 +197,27 @@ class Commander:
         if not board.settled():
             board.status(MAV_SEVERITY_CRITICAL, "Arming denied: estimator not settled")
             return MAV_RESULT_DENIED
-        if self.mode in PREVENTS_ARMING or not self.can_run(self.mode):
+        if self.mode in (FlightMode.POSCTL, FlightMode.MANUAL) and board.health.manual_control_fresh(board.now_us) \
+                and board.health.manual.throttle > THROTTLE_ABOVE_CENTER:
+            board.status(MAV_SEVERITY_CRITICAL, "Arming denied: throttle above center")
+            return MAV_RESULT_TEMPORARILY_REJECTED
+        if not self.can_arm():
+            if self._needs_data_link():
+                board.status(MAV_SEVERITY_WARNING, "Preflight Fail: No connection to the ground control station")
             board.status(MAV_SEVERITY_CRITICAL, "Arming denied: Resolve system health failures first")
             return MAV_RESULT_TEMPORARILY_REJECTED
         board.arm()
         return MAV_RESULT_ACCEPTED
+
+    def can_arm(self) -> bool:
+        """PX4's arming checks the emulator has besides the estimator's: the mode, the data link when NAV_DLL_ACT
+        wants one, a battery not yet critical (HealthAndArmingChecks: modeCheck, rcAndDataLinkCheck, batteryCheck)."""
+        if self._needs_data_link() or self.board.health.battery_warning in ("critical", "emergency"):
+            return False
+        return self.mode not in PREVENTS_ARMING and self.can_run(self.mode)
+
+    def _needs_data_link(self) -> bool:
+        return bool(self.board.params["NAV_DLL_ACT"]) and self.board.health.gcs_lost
 
     # --- commands ----------------------------------------------------------------------------------------
     def _takeoff(self, command: Command) -> int:

@@ -51,6 +51,7 @@ from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.failsafe import Failsafes
 from firmware_interface.emulator.flight import Flight
 from firmware_interface.emulator.geometry import quat_to_euler
+from firmware_interface.emulator.health import Health
 from firmware_interface.emulator.mission_protocol import MISSION_MESSAGES, MissionServer
 from firmware_interface.emulator.mixer import Mixer
 from firmware_interface.emulator.navigator import NAVIGATOR_PERIOD_US
@@ -95,6 +96,7 @@ class EmulatedBoard(Flight):
         self.offboard = OffboardInput()
         self.missions = MissionServer(config.system_id, self._send, self.status, self._mission_changed)
         self.commander = Commander(self)
+        self.health = Health(self)
         self.failsafes = Failsafes(self)
         super().__init__()
         self.telemetry = Telemetry(self)
@@ -150,6 +152,13 @@ class EmulatedBoard(Flight):
             self.param_server.handle(msg)
         elif kind in MISSION_MESSAGES:
             self.missions.handle(msg)
+        elif kind == "HEARTBEAT":
+            self.health.on_heartbeat(msg, self.now_us)
+        elif kind == "MANUAL_CONTROL":
+            if msg.target in (0, self.config.system_id):
+                self.health.manual.receive(msg, self.now_us)
+        elif kind == "BATTERY_STATUS":
+            self.health.on_battery(msg)
 
     # --- the control step ---------------------------------------------------------------------------------
     def _on_sensor(self, msg: Message) -> None:
@@ -179,8 +188,10 @@ class EmulatedBoard(Flight):
     def _tick(self, state: VehicleState | None, t_us: int) -> None:
         """The navigator's rate: mode logic, failsafes, home, the ground station's streams."""
         self.navigator.next_tick_us = t_us + NAVIGATOR_PERIOD_US
+        self.health.tick(t_us)
         if state is not None:
             if self.armed:
+                self.follow_sticks()
                 self.navigator.tick(state, t_us)
             elif self.home is None and self.position_ok():
                 self.set_home(state)
@@ -193,6 +204,7 @@ class EmulatedBoard(Flight):
         fix = codec.read_hil_gps(msg)
         self.estimator.on_gps(fix, self.last_sensor_t_us)
         self.last_fix, self.last_fix_us = fix, self.last_sensor_t_us
+        self.health.on_fix(fix, self.last_sensor_t_us)
 
     def _state(self) -> VehicleState | None:
         if self.config.state_source == "truth":
@@ -220,17 +232,28 @@ class EmulatedBoard(Flight):
         """The arming check of the state the flight code flies on."""
         return self.truth is not None if self.config.state_source == "truth" else self.estimator.ready()
 
-    position_ok = settled
+    def position_ok(self) -> bool:
+        """A position to fly on: settled, and (on the estimator) aided by GPS within EKF2_NOAID_TOUT."""
+        return self.settled() and (self.config.state_source == "truth" or not self.health.position_lost)
 
     def armable(self) -> bool:
         """Whether arming in the current mode would pass now (SYS_STATUS's PREARM_CHECK)."""
-        commander = self.commander
-        return self.settled() and commander.mode not in (FlightMode.AUTO_RTL, FlightMode.AUTO_LAND) \
-            and commander.can_run(commander.mode)
+        return self.settled() and self.commander.can_arm()
 
     def manual_control_fresh(self) -> bool:
-        """Stick input from a ground station within COM_RC_LOSS_T (none is taken yet)."""
-        return False
+        """Stick input from a ground station within COM_RC_LOSS_T."""
+        return self.health.manual_control_fresh(self.now_us)
+
+    def manual_control_lost(self) -> bool:
+        return self.health.manual_control_lost(self.now_us)
+
+    @property
+    def gcs_lost(self) -> bool:
+        return self.health.gcs_lost
+
+    @property
+    def battery_warning(self) -> str:
+        return self.health.battery_warning
 
     def local_frame(self) -> LocalFrame | None:
         return self.estimator.origin

@@ -16,6 +16,7 @@ import numpy as np
 from pymavlink.dialects.v20.common import MAV_SEVERITY_INFO
 
 from firmware_interface.emulator.control import Controller, ControlOutput, VehicleState
+from firmware_interface.emulator.manual_control import StickReference
 from firmware_interface.emulator.mission_run import MissionRun
 from firmware_interface.emulator.mixer import Mixer
 from firmware_interface.emulator.navigator import Navigator, state_setpoint
@@ -26,6 +27,8 @@ from firmware_interface.px4_modes import FlightMode
 if TYPE_CHECKING:
     from firmware_interface.emulator.commander import Commander
     from firmware_interface.emulator.config import EmulatorConfig
+    from firmware_interface.emulator.failsafe import Failsafes
+    from firmware_interface.emulator.health import Health
     from firmware_interface.emulator.mission_protocol import MissionServer
     from firmware_interface.emulator.offboard import OffboardInput
     from firmware_interface.emulator.px4_params import Px4Values
@@ -52,10 +55,13 @@ class Flight:
     offboard: OffboardInput
     last_control: ControlOutput | None
     telemetry: Telemetry
+    failsafes: Failsafes
+    health: Health
     last_sensor_t_us: int | None
     status: Callable[[int, str], None]
     _state: Callable[[], VehicleState | None]
     local_frame: Callable[[], LocalFrame | None]
+    manual_control_fresh: Callable[[], bool]
 
     def __init__(self) -> None:
         self.armed = False
@@ -79,6 +85,8 @@ class Flight:
     # --- arming --------------------------------------------------------------------------------------------
     def arm(self) -> None:
         self.armed = True
+        self.failsafes.armed_changed()
+        self.health.on_arm(self.now_us)
         self.controller.reset()
         self.takeoff_d = None
         self.airborne = False
@@ -93,21 +101,25 @@ class Flight:
         self.armed = False
         self.landed_at_us = None
         self.navigator.clear()
-        self.commander.mode, self.commander.failsafe = FlightMode.POSCTL, False
+        self.commander.reset()
+        self.failsafes.armed_changed()
 
     def set_home(self, state: VehicleState) -> None:
         self.home, self.home_yaw = state.pos_ned.copy(), float(state.eta[2])
         self.telemetry.send_home_position()
 
     # --- the mode flown -----------------------------------------------------------------------------------
-    def fly(self, mode: FlightMode) -> None:
-        """Start flying `mode` from the last reference (armed)."""
+    def fly(self, mode: FlightMode, blind: bool = False) -> None:
+        """Start flying `mode` from the last reference (armed); `blind`: AUTO.LAND without a position estimate
+        (PX4's Descend)."""
         navigator, state, t_us = self.navigator, self._state(), self.now_us
         if state is None:
             return
         if navigator.last is None and self.airborne:
             navigator.last = state_setpoint(state)
-        if mode is FlightMode.AUTO_TAKEOFF:
+        if blind:
+            navigator.descend_blind(state)
+        elif mode is FlightMode.AUTO_TAKEOFF:
             navigator.take_off(state, t_us)
         elif mode is FlightMode.AUTO_LAND:
             navigator.land_here(state, t_us)
@@ -123,6 +135,18 @@ class Flight:
         else:  # POSCTL, MANUAL, AUTO.LOITER, and AUTO.RTL on the ground
             navigator.hold(t_us)
 
+    def follow_sticks(self) -> None:
+        """POSCTL and MANUAL fly the sticks once a ground station sends them (until then they hold)."""
+        navigator = self.navigator
+        if self.commander.mode not in (FlightMode.POSCTL, FlightMode.MANUAL) or self.commander.failsafe \
+                or isinstance(navigator.reference, StickReference) or not self.manual_control_fresh():
+            return
+        state = navigator.state
+        start = navigator.last if navigator.last is not None else (state_setpoint(state) if state else None)
+        if start is not None:
+            navigator.task = None
+            navigator.reference = StickReference(self.health.manual, self.params, start, self.manual_control_fresh)
+
     def reposition(self, lat_deg: float, lon_deg: float, alt_amsl: float) -> None:
         """DO_REPOSITION in AUTO.LOITER: go there and hold (NaN: keep that coordinate)."""
         frame, last = self.local_frame(), self.navigator.last
@@ -137,14 +161,14 @@ class Flight:
     def mode_completed(self, mode: FlightMode) -> None:
         """Take-off done, mission done: AUTO.LOITER, as PX4's commander switches, holding at the position setpoint
         (the take-off altitude, the last waypoint): the move there runs on and ends at rest."""
-        if self.commander.mode is mode:
-            self.commander.mode, self.commander.failsafe = FlightMode.AUTO_LOITER, False
+        if self.commander.mode is mode and not self.commander.failsafe:
+            self.commander.reset(FlightMode.AUTO_LOITER)
             self.navigator.task = None
 
     def request_mode(self, mode: FlightMode) -> None:
         """A mission's RETURN_TO_LAUNCH item: the command PX4's navigator issues to its commander."""
         self.status(MAV_SEVERITY_INFO, "Returning to launch")
-        self.commander.enter(mode)
+        self.commander.change_mode(mode)
 
     def descent_started(self) -> None:
         """The thrust that holds the vehicle now is the hover thrust estimate (payload included), as PX4's hover
@@ -185,7 +209,7 @@ class Flight:
             if isinstance(task, MissionRun | ReturnRun):
                 task.landed()
             self.navigator.clear()
-            self.commander.mode, self.commander.failsafe = FlightMode.POSCTL, False
+            self.commander.reset()
 
     def _disarm_after_landing(self, t_us: int) -> None:
         delay_s = self.params["COM_DISARM_LAND"]

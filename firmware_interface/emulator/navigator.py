@@ -84,10 +84,12 @@ class Navigator:
         self.task: Task | None = None  # what `tick` watches
         self.cruise_speed: float | None = None  # DO_CHANGE_SPEED's; None: MPC_XY_CRUISE
         self.takeoff_alt_amsl: float | None = None  # NAV_TAKEOFF's param7
+        self.state: VehicleState | None = None  # the estimate of the step being flown (a blind descent reads it)
         self.next_tick_us = 0
 
     # --- every control step ----------------------------------------------------------------------------
     def setpoint(self, state: VehicleState, t_us: int, dt: float) -> Setpoint:
+        self.state = state
         if self.reference is None:
             self.reference = Hold(state_setpoint(state))
         self.last = self.reference.sample(t_us, dt)
@@ -98,6 +100,10 @@ class Navigator:
         """Down towards the ground: a landing, or an offboard velocity down (the land detector runs)."""
         reference = self.reference
         return reference is not None and reference.descending
+
+    @property
+    def blind(self) -> bool:
+        return isinstance(self.reference, BlindDescent)
 
     @property
     def taking_off(self) -> bool:
@@ -152,6 +158,13 @@ class Navigator:
         self.reference = Descent(start, lambda: self.params["MPC_LAND_SPEED"])
         self.vehicle.descent_started()
 
+    def descend_blind(self, state: VehicleState) -> None:
+        """PX4's Descend, for a vehicle without a position estimate: level, down at MPC_LAND_SPEED."""
+        self.task = None
+        self.state = state
+        self.reference = BlindDescent(self, float(state.pos_ned[2]), float(state.eta[2]))
+        self.vehicle.descent_started()
+
     def take_off(self, state: VehicleState, t_us: int) -> None:
         """AUTO.TAKEOFF, armed: climb to the commanded altitude (or MIS_TAKEOFF_ALT above the vehicle)."""
         here_amsl = self.altitude_amsl(float(state.pos_ned[2]))
@@ -190,6 +203,24 @@ class Navigator:
         if climb_m is not None and 0 < climb_m < radius:
             radius = climb_m / 2
         return float(state.pos_ned[2]) < target_down + radius
+
+
+class BlindDescent:
+    """Down at MPC_LAND_SPEED with no horizontal correction (FlightTaskDescend: zero horizontal acceleration,
+    'stay level to minimize horizontal drift'): the horizontal reference is the estimate itself."""
+
+    descending = True
+
+    def __init__(self, navigator: Navigator, down: float, yaw: float) -> None:
+        self.navigator, self.down, self.yaw = navigator, down, yaw
+
+    def sample(self, t_us: int, dt: float) -> Setpoint:
+        speed = self.navigator.params["MPC_LAND_SPEED"]
+        self.down += speed * dt
+        state = self.navigator.state
+        assert state is not None
+        return Setpoint(np.array((state.pos_ned[0], state.pos_ned[1], self.down)),
+                        np.array((state.vel_ned[0], state.vel_ned[1], speed)), np.zeros(3), self.yaw)
 
 
 class LandTask:

@@ -20,7 +20,7 @@ from pymavlink.dialects.v20.common import MAV_FRAME_LOCAL_NED
 
 from firmware_interface.emulator.control import Setpoint
 from firmware_interface.emulator.navigator import Navigator
-from firmware_interface.emulator.trajectory import Move
+from firmware_interface.emulator.trajectory import Move, velocity_step
 
 IGNORE_POSITION, IGNORE_VELOCITY, IGNORE_ACCELERATION, IGNORE_YAW = 0b111, 0b111 << 3, 0b111 << 6, 1 << 10
 
@@ -100,15 +100,6 @@ class OffboardReference:
     def _at_velocity(self, wanted_ned: np.ndarray, dt: float) -> Setpoint:
         """Velocity towards the wanted one at the acceleration limits, position its integral."""
         self.move = None
-        start = self.moving or self._start()
-        limits = self.navigator.limits()
-        change = wanted_ned - start.vel_ned
-        horizontal = float(np.hypot(change[0], change[1]))
-        step = np.array(change)
-        if horizontal > limits.accel_xy * dt:
-            step[:2] *= limits.accel_xy * dt / horizontal
-        z_limit = (limits.accel_down if change[2] > 0 else limits.accel_up) * dt
-        step[2] = max(min(step[2], z_limit), -z_limit)
-        vel = start.vel_ned + step
-        self.moving = Setpoint(start.pos_ned + vel * dt, vel, step / dt if dt > 0 else np.zeros(3), self._yaw())
+        moved = velocity_step(self.moving or self._start(), wanted_ned, self.navigator.limits(), dt)
+        self.moving = Setpoint(moved.pos_ned, moved.vel_ned, moved.acc_ned, self._yaw())
         return self.moving

@@ -33,6 +33,14 @@ PX4_PARAMS: dict[str, Px4Param] = {
     "MPC_ACC_UP_MAX": Px4Param(4.0, 2.0, 15.0),
     "MPC_ACC_DOWN_MAX": Px4Param(3.0, 2.0, 15.0),
     "MPC_YAWRAUTO_MAX": Px4Param(45.0, 5.0, 360.0),
+    # mc_pos_control: position control from the sticks
+    "MPC_VEL_MANUAL": Px4Param(10.0, 3.0, 20.0),
+    "MPC_ACC_HOR_MAX": Px4Param(5.0, 2.0, 15.0),
+    "MPC_MAN_Y_MAX": Px4Param(150.0, 0.0, 400.0),
+    "MPC_HOLD_DZ": Px4Param(0.1, 0.0, 1.0),
+    "MPC_XY_MAN_EXPO": Px4Param(0.6, 0.0, 1.0),
+    "MPC_Z_MAN_EXPO": Px4Param(0.6, 0.0, 1.0),
+    "MPC_YAW_EXPO": Px4Param(0.6, 0.0, 1.0),
     # navigator
     "NAV_ACC_RAD": Px4Param(2.0, 0.05, 200.0),
     "NAV_MC_ALT_RAD": Px4Param(0.8, 0.05, 200.0),
@@ -46,6 +54,18 @@ PX4_PARAMS: dict[str, Px4Param] = {
     "COM_DISARM_LAND": Px4Param(2.0, -INF, INF),
     "COM_OF_LOSS_T": Px4Param(1.0, 0.0, 60.0),
     "COM_OBL_RC_ACT": Px4Param(0.0, 0.0, 7.0, integer=True),
+    # commander: failsafes
+    "COM_FAIL_ACT_T": Px4Param(5.0, 0.0, 25.0),
+    "COM_RC_LOSS_T": Px4Param(0.5, 0.0, 35.0),
+    "NAV_RCL_ACT": Px4Param(2.0, 1.0, 6.0, integer=True),
+    "COM_RCL_EXCEPT": Px4Param(0.0, 0.0, 31.0, integer=True),
+    "COM_DL_LOSS_T": Px4Param(10.0, 5.0, 300.0, integer=True),
+    "NAV_DLL_ACT": Px4Param(0.0, 0.0, 6.0, integer=True),
+    "COM_LOW_BAT_ACT": Px4Param(0.0, 0.0, 3.0, integer=True),
+    "BAT_LOW_THR": Px4Param(0.15, 0.12, 0.5),
+    "BAT_CRIT_THR": Px4Param(0.07, 0.05, 0.25),
+    "BAT_EMERGEN_THR": Px4Param(0.05, 0.03, 0.1),
+    "EKF2_NOAID_TOUT": Px4Param(5_000_000.0, 500_000.0, 10_000_000.0, integer=True),  # µs
 }
 
 

@@ -26,7 +26,9 @@ from pymavlink.dialects.v20.common import (
     MAV_SYS_STATUS_SENSOR_3D_GYRO,
     MAV_SYS_STATUS_SENSOR_3D_MAG,
     MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
+    MAV_SYS_STATUS_SENSOR_BATTERY,
     MAV_SYS_STATUS_SENSOR_GPS,
+    MAV_SYS_STATUS_SENSOR_RC_RECEIVER,
     MAV_TYPE_QUADROTOR,
 )
 
@@ -91,7 +93,7 @@ class Telemetry:
         base_mode = (codec.MODE_FLAG_CUSTOM | codec.MODE_FLAG_HIL | (codec.MODE_FLAG_ARMED if board.armed else 0)
                      | base_mode_flags(mode))
         if board.armed:
-            status = MAV_STATE_CRITICAL if board.commander.failsafe else MAV_STATE_ACTIVE
+            status = MAV_STATE_CRITICAL if board.failsafes.active else MAV_STATE_ACTIVE
         else:
             status = MAV_STATE_STANDBY if board.settled() else MAV_STATE_BOOT
         board.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
@@ -156,10 +158,17 @@ class Telemetry:
         estimate = MAV_SYS_STATUS_AHRS if board.position_ok() else 0
         present = SENSORS | MAV_SYS_STATUS_SENSOR_GPS | MAV_SYS_STATUS_AHRS
         health = sensors | gps | estimate | (MAV_SYS_STATUS_PREARM_CHECK if board.armable() else 0)
+        if board.manual_control_fresh():
+            present |= MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+            health |= MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+        if board.health.battery is not None:
+            present |= MAV_SYS_STATUS_SENSOR_BATTERY
+            health |= 0 if board.battery_warning else MAV_SYS_STATUS_SENSOR_BATTERY
+        millivolts, centiamps, percent = board.health.battery_mv_ca_percent()
         board.link.send("SYS_STATUS", onboard_control_sensors_present=present,
                         onboard_control_sensors_enabled=present, onboard_control_sensors_health=health, load=0,
-                        voltage_battery=0xFFFF, current_battery=-1, drop_rate_comm=0, errors_comm=0, errors_count1=0,
-                        errors_count2=0, errors_count3=0, errors_count4=0, battery_remaining=-1,
+                        voltage_battery=millivolts, current_battery=centiamps, drop_rate_comm=0, errors_comm=0,
+                        errors_count1=0, errors_count2=0, errors_count3=0, errors_count4=0, battery_remaining=percent,
                         onboard_control_sensors_present_extended=0, onboard_control_sensors_enabled_extended=0,
                         onboard_control_sensors_health_extended=0)
 

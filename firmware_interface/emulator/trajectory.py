@@ -141,3 +141,17 @@ class Move:
 
     def finished(self, t_us: int) -> bool:
         return t_us >= self.end_us and (t_us - self.start_us) * 1e-6 >= self.yaw_s
+
+
+def velocity_step(start: Setpoint, wanted_ned: np.ndarray, limits: Limits, dt: float) -> Setpoint:
+    """One step of a reference driven by a wanted velocity: its velocity moves towards the wanted one at the
+    acceleration limits (horizontal, up, down), its position is the integral."""
+    change = wanted_ned - start.vel_ned
+    step = np.array(change)
+    horizontal = math.hypot(float(change[0]), float(change[1]))
+    if horizontal > limits.accel_xy * dt:
+        step[:2] *= limits.accel_xy * dt / horizontal
+    z_limit = (limits.accel_down if change[2] > 0 else limits.accel_up) * dt
+    step[2] = max(min(float(step[2]), z_limit), -z_limit)
+    vel = start.vel_ned + step
+    return Setpoint(start.pos_ned + vel * dt, vel, step / dt if dt > 0 else np.zeros(3), start.yaw)

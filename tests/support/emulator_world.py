@@ -35,13 +35,21 @@ class World:
     def __init__(self, tmp_path: Path, params: dict[str, float] | None = None, seed: int = 1,
                  sensors: SensorsConfig | None = None) -> None:
         config = tmp_path / "emulator.yaml"
-        config.write_text(yaml.safe_dump({"params": params or {}}))
+        # the HIL link's own watchdog (no HIL_SENSOR for failsafe_s of wall-clock time: disarm) is not what these
+        # tests judge, and on a loaded 2-core machine a test process can be descheduled for longer than 0.5 s
+        config.write_text(yaml.safe_dump({"params": params or {}, "failsafe_s": 5.0}))
         self.pair = open_pty_pair()
         self.process = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port",
                                          self.pair.slave_path, "--config", str(config)], stderr=subprocess.PIPE)
         self.link = Link(self.pair.master)  # decodes every message
         self.bench = FrameEncoder(1, 51)
         self.gcs = common.MAVLink(None, srcSystem=GCS_SYSTEM, srcComponent=GCS_COMPONENT)
+        self.battery = common.MAVLink(None, srcSystem=1, srcComponent=180)  # MAV_COMP_ID_BATTERY of the vehicle
+        self.gcs_heartbeats = True  # the GCS's 1 Hz HEARTBEAT (off: a lost data link)
+        self.gps_on = True  # HIL_GPS sent (off: the receiver lost)
+        self.sticks: tuple[int, int, int, int] | None = None  # MANUAL_CONTROL x, y, z, r sent at 20 Hz when set
+        self.battery_percent: int | None = None  # BATTERY_STATUS from the battery component at 1 Hz when set
+        self.last_gps_us = 0  # when HIL_GPS last went out
         self.home = Home()
         self.sensors = SensorSuite(sensors or SENSORS, self.home, RATE_HZ, np.random.default_rng(seed))
         self.plant = Plant(plant_parameters("inspection_quad", {}))
@@ -150,17 +158,28 @@ class World:
         self.attitudes.append(s.rpy.copy())
         readings, gps = self.sensors.step(TrueState(self.t_us, s.pos_ned, s.vel_ned, s.q_wxyz, s.rates_frd,
                                                     s.specific_force_frd))
-        if self.t_us % 1_000_000 == DT_US:
-            self.send(self.gcs.heartbeat_encode(6, 8, 0, 0, 0))  # MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID
+        self._ground_station_inputs()
         frames = b""
-        if gps is not None:
+        if gps is not None and self.gps_on:
             frames += self.bench.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps))
+            self.last_gps_us = self.t_us
         frames += self.bench.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings))
         self.link.transport.write(frames)
         self._await_reply()
 
+    def _ground_station_inputs(self) -> None:
+        if self.t_us % 1_000_000 == DT_US:
+            if self.gcs_heartbeats:
+                self.send(self.gcs.heartbeat_encode(6, 8, 0, 0, 0))  # MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID
+            if self.battery_percent is not None:
+                cells = [4000, 4000, 4000] + [0xFFFF] * 7
+                self.link.transport.write(self.battery.battery_status_encode(
+                    0, 0, 0, 2500, cells, 500, -1, -1, self.battery_percent).pack(self.battery))
+        if self.sticks is not None and self.t_us % 50_000 == 0:
+            self.send(self.gcs.manual_control_encode(1, *self.sticks, 0))
+
     def _await_reply(self) -> None:
-        for _ in range(200):
+        for _ in range(1000):  # up to 10 s: a loaded machine may stall the emulator's process that long
             for msg in self._receive(0.01):
                 if msg.get_type() == "HIL_ACTUATOR_CONTROLS" and msg.time_usec == self.t_us:
                     outputs = codec.read_actuator_controls(msg)
