@@ -25,7 +25,9 @@ def shipped_flight(tmp_path_factory) -> Callable[[Path], tuple[subprocess.Comple
 
     def flight(scenario: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
         if scenario not in flights:
-            flights[scenario] = run(scenario, tmp_path_factory.mktemp(scenario.stem))
+            # no ground-station relay: a GCS answering on UDP 14550 (another run, QGroundControl) would inject
+            # commands, and their ACKs would be recorded
+            flights[scenario] = run(scenario, tmp_path_factory.mktemp(scenario.stem), "--no-gcs")
         return flights[scenario]
 
     return flight
