@@ -18,7 +18,7 @@ from pymavlink.dialects.v20.common import (
 )
 
 from firmware_interface.emulator.manual_control import expo_deadzone
-from tests.emulator_world import World
+from tests.support.emulator_world import World
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 NAN = float("nan")
