@@ -207,3 +207,16 @@ def test_a_pilot_that_ends_the_flight_is_not_asked_again(tmp_path, board_for, sp
         world.plant.close()
     assert (result.exit_code, pilot.asked_after_end) == (EXIT_OK, 0)
     assert len(frames) == 25
+
+
+def test_what_the_board_said_before_the_first_step_is_in_no_step(tmp_path, board_for):
+    """A booting emulator sends a heartbeat each wall-clock second until its first sensor frame; a slow start
+    (here 2.5 s between attaching and stepping) must not put those heartbeats in the recording of step 1, which
+    holds the one heartbeat the emulator sends on its simulation clock at its first sensor frame."""
+    scenario = hover(tmp_path, 1.0)
+    board_for.append(board := ThreadBoard(scenario))
+    time.sleep(2.5)
+    frames: list[StepFrame] = []
+    result, _ = fly(scenario, board, frames.append)
+    assert result.exit_code == EXIT_OK
+    assert [kind for kind, _ in frames[0].board].count("HEARTBEAT") == 1

@@ -50,6 +50,12 @@ class BoardIO:
         if self.truth_use == "for_log":
             self.board.hil_session.send_ground_truth_ahead(self._ground_truth(t_us, truth))
 
+    def drain(self) -> None:
+        """Read what every link to the board holds now and drop its messages (the board's state keeps them)."""
+        for session in self.board.sessions:
+            session.poll(0.0)
+        self.take_inbox()
+
     def take_inbox(self) -> list[Message]:
         """This step's messages from every link to the board, taken as they came (decoded later)."""
         return self.board.hil_session.take_inbox()

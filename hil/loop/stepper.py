@@ -84,6 +84,9 @@ class Stepper:
     def run(self) -> LoopResult:
         started = time.perf_counter()
         board_cpu_s = self.board.cpu_s()
+        self.io.drain()  # what the board said before the first step (a booting board's wall-clock heartbeats, as
+        # many as the start-up took seconds) belongs to no step: recorded, it would make a recording depend on how
+        # fast the machine got here
         reason, code, internal = "completed", int(EXIT_OK), None
         try:
             paced = realtime_priority(self.board.realtime_pids()) if self.paced else nullcontext("")
