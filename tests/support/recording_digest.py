@@ -72,8 +72,15 @@ def recorded_here() -> dict[str, Any] | None:
     return next((entry for entry in entries if entry["platform"] == numeric_platform()), None)
 
 
+# Shipped scenarios the emulator cannot fly yet: their pilot needs a board that flies for a ground station (PX4's
+# modes, its mission protocol and navigator: the emulator's side of issue 33). They fly on PX4 meanwhile
+# (tests/test_mission_pilot.py); the digests and the emulator flights take them once the emulator does.
+NEEDS_AN_AUTOPILOT = {"patrol_mission": "a PX4 mission (pilot: mission): the emulator does not fly missions yet"}
+
+
 def shipped_scenarios() -> list[Path]:
-    return sorted((ROOT / "scenarios").glob("*.yaml"))
+    """The shipped scenarios the emulator flies."""
+    return sorted(p for p in (ROOT / "scenarios").glob("*.yaml") if p.stem not in NEEDS_AN_AUTOPILOT)
 
 
 def main() -> int:
