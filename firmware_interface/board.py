@@ -22,7 +22,7 @@ from pymavlink.dialects.v20.common import (
 )
 
 from firmware_interface import hil_codec as codec
-from firmware_interface.board_requests import BoardError, ParamSet, Request
+from firmware_interface.board_requests import BoardError, ParamSet, ProtocolMessage, Request
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
 
@@ -30,11 +30,13 @@ HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGr
 SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
 STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
+# the mission protocol as a ground station takes part in it, and the mission's progress
+MISSION_KINDS = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK", "MISSION_CURRENT", "MISSION_ITEM_REACHED")
 EVENT_MSG_ID = 410  # MAVLink's EVENT (the events protocol), newer than pymavlink's dialect
 
 
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
-                         "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE"})
+                         "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE", *MISSION_KINDS})
 # What a session decodes; the board's other messages stay whole frames (for the tlog and a ground station).
 DECODED_IDS = frozenset(getattr(common, f"MAVLINK_MSG_ID_{kind}")
                         for kind in (*INBOX_KINDS, "HIL_ACTUATOR_CONTROLS", "PARAM_VALUE"))
@@ -350,10 +352,13 @@ class BoardSession:
         self.link.send("PARAM_SET", target_system=system, target_component=component, param_id=name,
                        param_value=float(value), param_type=MAV_PARAM_TYPE_REAL32)
 
-    def ask(self, ask: Request | ParamSet) -> None:
-        """Send a command or a parameter without waiting for the answer."""
+    def ask(self, ask: Request | ParamSet | ProtocolMessage) -> None:
+        """Send a command, a parameter or a protocol's message without waiting for the answer."""
         if isinstance(ask, ParamSet):
             self.set_param(ask.name, ask.value)
+        elif isinstance(ask, ProtocolMessage):
+            system, component = self._target()
+            self.link.send(ask.type, target_system=system, target_component=component, **dict(ask.fields))
         else:
             self.request(ask.command, ask.params)
 

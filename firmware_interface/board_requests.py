@@ -4,10 +4,12 @@ each step until the answer is in the session's report (`board_waits` has the wai
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from pymavlink.dialects.v20.common import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
+    MAV_CMD_MISSION_START,
     MAV_CMD_NAV_LAND,
 )
 
@@ -29,6 +31,15 @@ class Request:
 
 
 @dataclass(frozen=True)
+class ProtocolMessage:
+    """A message of one of MAVLink's protocols other than commands (the mission protocol: MISSION_COUNT,
+    MISSION_ITEM_INT, ...), sent to the board's autopilot by `BoardSession.ask`, which fills in the target."""
+
+    type: str  # the MAVLink message name
+    fields: tuple[tuple[str, Any], ...]  # (field, value) pairs, target_system and target_component left out
+
+
+@dataclass(frozen=True)
 class ParamSet:
     """A PARAM_SET of a float parameter: the board answers with PARAM_VALUE (`BoardReport.params`)."""
 
@@ -41,3 +52,8 @@ DISARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0,))
 FORCE_DISARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (0.0, float(FORCE_DISARM_MAGIC)))  # also in the air
 OFFBOARD = Request(MAV_CMD_DO_SET_MODE, (float(codec.MODE_FLAG_CUSTOM), float(PX4_MAIN_MODE_OFFBOARD)))
 LAND = Request(MAV_CMD_NAV_LAND)  # PX4's AUTO_LAND where the vehicle is
+
+
+def mission_start(item_count: int) -> Request:
+    """MAV_CMD_MISSION_START from the first item to the last (PX4 also arms with it, when it can)."""
+    return Request(MAV_CMD_MISSION_START, (0.0, float(item_count - 1)))

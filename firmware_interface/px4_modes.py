@@ -65,3 +65,8 @@ def mode_name(mode: int) -> str:
     if main == PX4_MAIN_MODE_AUTO and sub:
         return f"AUTO.{_AUTO_SUB_NAMES.get(sub, str(sub))}"
     return name
+
+
+# the name `mode_name` gives each known mode, as a scenario's expectations may name them (AUTO has a sub mode)
+PX4_MODE_NAMES = tuple([mode_name(custom_mode(main)) for main in sorted(_MAIN_NAMES) if main != PX4_MAIN_MODE_AUTO]
+                       + [mode_name(custom_mode(PX4_MAIN_MODE_AUTO, sub)) for sub in sorted(_AUTO_SUB_NAMES)])

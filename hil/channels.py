@@ -163,6 +163,15 @@ class ExtendedSysState(_Sample):
     landed_state: int = _f("MAV_LANDED_STATE (1 on ground, 2 in air, 3 taking off, 4 landing)")
 
 
+class MissionCurrent(_Sample):
+    seq: int = _f("the mission item being flown (MISSION_CURRENT.seq)")
+    total: int = _f("items in the mission (65535: none)")
+
+
+class MissionItemReached(_Sample):
+    seq: int = _f("the mission item just reached (PX4 repeats it ten times at 1 Hz)")
+
+
 class LinkCounters(_Sample):
     """Telemetry only: the link's frame counters, once per second."""
 
@@ -176,14 +185,16 @@ CHANNEL_MODELS: dict[str, type[_Sample]] = {
     "events": Event, "board/attitude_target": AttitudeTarget, "board/estimates": Estimates,
     "board/heartbeat": Heartbeat, "board/statustext": StatusText, "board/command_ack": CommandAck,
     "board/local_position_ned": LocalPositionNed, "board/attitude": AttitudeEstimate,
-    "board/extended_sys_state": ExtendedSysState, "board/link": LinkCounters,
+    "board/extended_sys_state": ExtendedSysState, "board/mission_current": MissionCurrent,
+    "board/mission_item_reached": MissionItemReached, "board/link": LinkCounters,
 }
 RECORDED_CHANNELS = tuple(c for c in CHANNEL_MODELS if c != "board/link")
 # board message type (MAVLink name) → its channel
 BOARD_CHANNEL = {"ATTITUDE_TARGET": "board/attitude_target", "DEBUG_FLOAT_ARRAY": "board/estimates",
                  "HEARTBEAT": "board/heartbeat", "STATUSTEXT": "board/statustext", "COMMAND_ACK": "board/command_ack",
                  "LOCAL_POSITION_NED": "board/local_position_ned", "ATTITUDE": "board/attitude",
-                 "EXTENDED_SYS_STATE": "board/extended_sys_state"}
+                 "EXTENDED_SYS_STATE": "board/extended_sys_state", "MISSION_CURRENT": "board/mission_current",
+                 "MISSION_ITEM_REACHED": "board/mission_item_reached"}
 TOPIC_PREFIX = "hil/"
 
 

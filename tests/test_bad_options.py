@@ -134,3 +134,13 @@ def test_runs_on_a_read_only_filesystem(read_only_folder):
     assert_one_line(["sweep", str(ROOT / "sweeps" / "paper_gains.yaml"), "--out", str(read_only_folder / "out")],
                     "Read-only file system")
     assert os.listdir(read_only_folder) == []
+
+
+@pytest.mark.parametrize("args, says", [
+    (["--speed-factor", "0"], "--speed-factor 0: expected a factor above 0 and at most 100"),
+    (["--speed-factor", "4", "--realtime"], "--speed-factor 4: --realtime paces at 1; give one of them"),
+    (["--speed-factor", "4", "--port", "/dev/ttyACM0"], "--speed-factor 4: /dev/ttyACM0 runs on its own clock"),
+])
+def test_a_speed_factor_only_a_lockstep_board_can_run_at(args, says, tmp_path):
+    assert_one_line(["run", str(SHORT_HOVER), "--runs", str(tmp_path), "--no-telemetry", *args], says)
+    assert list(tmp_path.iterdir()) == []  # nothing started

@@ -39,6 +39,21 @@ PASSTHROUGH: dict[int, tuple[str, int, int]] = {  # id: (name, CRC_EXTRA, maximu
 for _msgid, (_name, _crc_extra, _size) in PASSTHROUGH.items():
     SPECS.setdefault(_msgid, MessageSpec(_msgid, _crc_extra, _size))
 
+# Messages pymavlink decodes whose definition in PX4 v1.15.4's MAVLink (its mavlink submodule, commit a3558d6 of
+# mavlink/mavlink) has extension fields pymavlink's lacks: the mission protocol's opaque ids and MISSION_CURRENT's
+# mission state, TIMESYNC's target, ... A MAVLink 2 receiver takes a payload longer than it knows and ignores the
+# fields it does not (pymavlink's decoder does): the scanner allows their full length, computed with mavparse.
+NEWER_EXTENSIONS: dict[int, tuple[str, int]] = {  # id: (name, maximum payload bytes in PX4's dialect)
+    42: ("MISSION_CURRENT", 18),
+    44: ("MISSION_COUNT", 9),
+    47: ("MISSION_ACK", 8),
+    82: ("SET_ATTITUDE_TARGET", 51),
+    111: ("TIMESYNC", 18),
+    126: ("SERIAL_CONTROL", 81),
+}
+for _msgid, (_name, _size) in NEWER_EXTENSIONS.items():
+    SPECS[_msgid] = MessageSpec(_msgid, SPECS[_msgid].crc_extra, max(SPECS[_msgid].full_payload, _size))
+
 
 def frame_msgid(frame: bytes) -> int:
     """The message id of a whole v2 or v1 frame."""

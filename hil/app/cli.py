@@ -6,6 +6,7 @@ import argparse
 import errno
 import sys
 from pathlib import Path
+from typing import Any
 
 from hil.app.arguments import load_scenarios
 from hil.app.live_commands import add_live_commands
@@ -50,10 +51,19 @@ def _cmd_fmu_hover(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _flown(scenario: Any) -> str:
+    """What a scenario flies, in a few words: the bench's reference, or who else flies (and what mission)."""
+    pilot = scenario.pilot
+    if pilot.type == "bench":
+        return str(scenario.reference.type)
+    mission = f" of {len(pilot.items)} mission items" if pilot.items else ""
+    return f"{pilot.type} pilot{mission}, end {scenario.end}"
+
+
 def _cmd_check(args: argparse.Namespace) -> int:
     scenarios, bad = load_scenarios(args.files)
     for path, scenario in scenarios:
-        print(f"{path}: ok ({scenario.name}: {scenario.reference.type}, {scenario.duration_s:g} s)")
+        print(f"{path}: ok ({scenario.name}: {_flown(scenario)}, {scenario.duration_s:g} s)")
     return EXIT_BAD_INPUT if bad else EXIT_OK
 
 

@@ -12,6 +12,8 @@ from firmware_interface.emulator.control.registry import CONTROLLERS
 from hil.app.arguments import add_zenoh_arguments, load_scenarios, zenoh_options
 from hil.exit_codes import EXIT_BAD_INPUT, EXIT_DISK_FULL, EXIT_INTERRUPTED
 
+MAX_SPEED_FACTOR = 100.0
+
 
 def _with_run_options(scenario, args: argparse.Namespace):
     """The scenario with --seed, --controller and --telemetry-rate applied and validated as the file is
@@ -87,6 +89,9 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
     except BoardSpecError as exc:
         print(f"hil run: {exc}", file=sys.stderr)
         return None
+    if (problem := _speed_problem(args, board, scenario)) is not None:
+        print(f"hil run: --speed-factor {args.speed_factor:g}: {problem}", file=sys.stderr)
+        return None
     if args.foxglove is not None:
         from hil.outputs.foxglove_live import parse_address
 
@@ -98,7 +103,22 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
     return RunOptions(board=board, foxglove=args.foxglove, realtime=args.realtime,
                       gcs=[] if args.no_gcs else args.gcs, runs_root=Path(args.runs), keep_failed=args.keep_failed,
                       telemetry=None if args.no_telemetry else zenoh_options(args),
-                      telemetry_rates_hz=scenario.telemetry.rates_hz)
+                      telemetry_rates_hz=scenario.telemetry.rates_hz, speed_factor=args.speed_factor)
+
+
+def _speed_problem(args: argparse.Namespace, board: Any, scenario: Any) -> str | None:
+    """Only a lockstep board can be paced faster or slower than the wall clock."""
+    if args.speed_factor == 1.0:
+        return None
+    if not 0 < args.speed_factor <= MAX_SPEED_FACTOR:
+        return f"expected a factor above 0 and at most {MAX_SPEED_FACTOR:g}"
+    if args.realtime:
+        return "--realtime paces at 1; give one of them"
+    if scenario.faults.link:
+        return "a scenario with link faults runs on the wall clock (its faults are wall-clock effects)"
+    if board.policy(scenario).wall_clock:
+        return f"{board.label} runs on its own clock; only a lockstep board (the emulator, PX4 SITL) can run faster"
+    return None
 
 
 def _board(args: argparse.Namespace) -> Any:
@@ -137,7 +157,8 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
         "(PX4-Autopilot/build/px4_sitl_default) for this run, in lockstep; --px4-hitl DIR starts PX4's HITL "
         "code path (a px4_sitl_nolockstep build) on a pty and flies the serial path a Pixhawk gets. With a "
         "Pixhawk (SYS_HITL=1) use --port /dev/ttyACM0 (wall-clock real time). With a PX4 SITL you started "
-        "yourself use --port tcpin:127.0.0.1:4560 --mavlink udpout:127.0.0.1:14580. Exit codes: 0 pass, "
+        "yourself use --port tcpin:127.0.0.1:4560 --mavlink udpout:127.0.0.1:14620 (after mavlink start -u 14620 "
+        "-r 4000000 -m onboard -o 14660 in its shell). Exit codes: 0 pass, "
         "1 expectations not met or the flight went wrong, 2 bad input, 3 board/link failure, 4 internal error "
         "(a bench bug; traceback in the run's bench.log), 5 disk full (the flight stopped; hil recover the "
         "recording), 130 interrupted."))
@@ -150,18 +171,24 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
     board.add_argument("--px4", metavar="DIR", help="start PX4 SITL from this build for the run (lockstep)")
     board.add_argument("--px4-hitl", metavar="DIR", help="start PX4's HITL code path from this px4_sitl_nolockstep "
                                                          "build on a pty (wall-clock, the serial path)")
-    run.add_argument("--mavlink", help="separate command link (PX4 SITL: udpout:127.0.0.1:14580)")
+    run.add_argument("--mavlink", help="separate command link (PX4 SITL: udpout:127.0.0.1:14620, an instance "
+                                       "added for the bench)")
     run.add_argument("--baud", type=int, help="serial baud rate where --port names none (default 921600)")
     run.add_argument("--connect-timeout", type=float, metavar="S",
                      help="seconds to wait for a board you attached (default 60 for PX4 SITL, 10 for serial)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
+    run.add_argument("--speed-factor", type=float, default=1.0, metavar="N",
+                     help="pace a lockstep board at N times the wall clock (as PX4_SIM_SPEED_FACTOR; PX4 SITL is told "
+                          "it). An outside pilot's run is paced at 1 by default; a faster one lets a script fly N "
+                          "times faster than it would take a person")
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
     run.add_argument("--runs", default="runs", help="where run directories go (default runs/)")
     run.add_argument("--gcs", action="append", metavar="ENDPOINT",
                      help="relay the board's MAVLink to this ground station and back (repeatable; default "
-                          "udpout:127.0.0.1:14550 where the bench holds the board's port; PX4 SITL has its own)")
+                          "udpout:127.0.0.1:14550 where the bench holds the board's port, and udpout:127.0.0.1:14540 "
+                          "too for MAVSDK/MAVROS when the pilot is not the bench; PX4 SITL serves both itself)")
     run.add_argument("--no-gcs", action="store_true", help="no ground-station relay")
     run.add_argument("--no-telemetry", action="store_true", help="do not publish on Zenoh")
     run.add_argument("--keep-failed", action="store_true",

@@ -10,7 +10,15 @@ from __future__ import annotations
 
 from firmware_interface.link import Link, LinkError, open_link
 
-DEFAULT_GCS = "udpout:127.0.0.1:14550"
+DEFAULT_GCS = "udpout:127.0.0.1:14550"  # QGroundControl listens here (PX4 SITL's GCS instance sends here)
+DEFAULT_API = "udpout:127.0.0.1:14540"  # MAVSDK and MAVROS listen here (PX4 SITL's offboard/API instance sends here)
+
+
+def default_endpoints(kind_default: tuple[str, ...], bench_flies: bool) -> list[str]:
+    """Where the relay sends when the user names no endpoint: the board kind's default (QGroundControl's port, or
+    none for PX4 SITL, which serves it itself), and MAVSDK's and MAVROS's port too when the bench does not fly, as
+    PX4 SITL serves an outside pilot; with the bench flying an API client would fight its offboard stream."""
+    return [*kind_default, *((DEFAULT_API,) if kind_default and not bench_flies else ())]
 
 
 class GcsBridge:

@@ -1,5 +1,6 @@
 """A PX4 SITL the user started, on a port the bench holds (tcpin:127.0.0.1:4560), with its command link named
-apart (--mavlink udpout:127.0.0.1:14580). PX4 may be started after the bench: it has a minute to connect."""
+apart (--mavlink udpout:127.0.0.1:14620, a MAVLink instance added for the bench in PX4's shell). PX4 may be
+started after the bench: it has a minute to connect."""
 
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ SITL_PORT_POLICY = BoardPolicy("attached", "the board's own (PX4)",
 @dataclass(frozen=True)
 class SitlPortTarget:
     port: str  # any connection string that is not serial
-    mavlink: str | None = None  # PX4 SITL's command link, e.g. udpout:127.0.0.1:14580; None: on `port`
+    mavlink: str | None = None  # PX4 SITL's command link, e.g. udpout:127.0.0.1:14620; None: on `port`
     connect_timeout_s: float | None = None
 
     @property

@@ -34,6 +34,7 @@ class LinkSettings:
     watchdog_s: float = 1.0
     tap: FrameTap | None = None  # sees every frame (the tlog)
     reversible_motors: bool = False  # the plant's rotors take -1..1 (the paper's ideal actuators)
+    speed_factor: float = 1.0  # a lockstep run paced at this many times the wall clock (PX4_SIM_SPEED_FACTOR)
 
 
 class BoardTarget(Protocol):

@@ -34,6 +34,11 @@ class FlightJudge:
             self.airborne = True
         elif on_ground and self.airborne:
             raise FlightFailed(f"the vehicle hit the ground {when}")
+        self.tumble_check(roll, pitch, when)
+
+    @staticmethod
+    def tumble_check(roll: float, pitch: float, when: str) -> None:
+        """Beyond TUMBLE_DEG of roll or pitch the vehicle is out of control, whoever flies it."""
         tilt = max(abs(roll), abs(pitch))
         if math.degrees(tilt) > TUMBLE_DEG:
             raise FlightFailed(f"the vehicle tumbled {when}: roll {math.degrees(roll):+.0f}°, "

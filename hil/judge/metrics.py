@@ -55,11 +55,11 @@ class MetricsCollector:
         """Nothing to close: `compute` gives the figures."""
 
     def add(self, frame: StepFrame) -> None:
-        if frame.phase != "mission" or frame.reference is None:
+        if frame.phase != "mission":
             return
         self.mission_steps += 1
         settled = frame.mission_t >= self.settle_s
-        if settled:
+        if settled and frame.reference is not None:  # a board flying its own mission has none
             self.position_error.add(frame.truth.pos_ned - frame.reference.pos_ned)
         for kind, payload in frame.board:
             if kind == "ATTITUDE_TARGET" and settled:

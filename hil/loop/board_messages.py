@@ -33,4 +33,8 @@ def decode_board_message(msg: Message) -> tuple[str, dict[str, Any]] | None:
         return kind, {"rpy": [msg.roll, msg.pitch, msg.yaw]}
     if kind == "EXTENDED_SYS_STATE":
         return kind, {"landed_state": msg.landed_state}
+    if kind == "MISSION_CURRENT":
+        return kind, {"seq": msg.seq, "total": msg.total}
+    if kind == "MISSION_ITEM_REACHED":
+        return kind, {"seq": msg.seq}
     return None

@@ -10,11 +10,12 @@ from typing import Any, Protocol
 import numpy as np
 
 from firmware_interface.board import BoardReport
-from firmware_interface.board_requests import ParamSet, Request
+from firmware_interface.board_requests import ParamSet, ProtocolMessage, Request
+from firmware_interface.link import Message
 from hil.scenario.reference import RefSample
 from plant_fmu.state import PlantState
 
-Ask = Request | ParamSet  # what a pilot may send the board on its command link
+Ask = Request | ParamSet | ProtocolMessage  # what a pilot may send the board on its command link
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,6 +41,7 @@ class PilotView:
     now_s: float = 0.0  # the bench's time
     truth: PlantState | None = None  # the plant after the latest step
     outputs_armed: bool = False  # the board's actuator outputs say armed (HIL_ACTUATOR_CONTROLS)
+    messages: list[Message] = field(default_factory=list)  # the board's messages since the last decision, in order
 
     def texts(self, count: int) -> str:
         """The board's last `count` texts, joined: a reason for an abort."""

@@ -61,14 +61,15 @@ class LoopResult:
 
 class Stepper:
     def __init__(self, world: World, board: BoardHandle, pilot: Pilot, sinks: list[Sink], dt_us: int,
-                 paced: bool, truth_use: GroundTruthUse, progress: Progress | None = None) -> None:
+                 paced: bool, truth_use: GroundTruthUse, progress: Progress | None = None,
+                 speed_factor: float = 1.0) -> None:
         self.world, self.board, self.pilot, self.sinks = world, board, pilot, sinks
         self.dt_us, self.dt = dt_us, dt_us / 1e6  # the bench's clock is integer µs; the plant's step follows it
         self.paced = paced
         self.progress = progress
         self.timing = LoopTiming()
         self.io = board_io(board, truth_use, world.local_frame, world.environment.steady, self.timing)
-        self.pacer = Pacer(self.dt, self.timing)
+        self.pacer = Pacer(self.dt / speed_factor, self.timing)  # paced: a step every dt / speed_factor of wall time
         self.view = PilotView(board.command_session.report, board.command_session.link.name, self.emit, board.params)
         self.t_us = 0
         self.phase = ""  # the latest decision's phase and mission clock (for the progress line and messages)
@@ -80,6 +81,7 @@ class Stepper:
         self.failsafe_texts: list[tuple[float, str]] = []  # the board's texts that say failsafe, with the time
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
         self._pending_inbox: list[Message] = []  # its board messages, decoded then too (off the board's wait)
+        self._unseen: list[Message] = []  # the board's messages the pilot has not been shown yet
 
     def run(self) -> LoopResult:
         started = time.perf_counter()
@@ -142,7 +144,7 @@ class Stepper:
                 return
             planned = self._step(*planned)
             if self.paced:
-                next_deadline = self.pacer.sleep_until(next_deadline + self.dt, self.t_us)
+                next_deadline = self.pacer.sleep_until(next_deadline + self.pacer.period_s, self.t_us)
             if self.progress is not None and time.perf_counter() - last_progress > 0.25:
                 last_progress = time.perf_counter()
                 self.progress(self.phase, self.t_us * 1e-6, self.pilot.progress(),
@@ -153,6 +155,7 @@ class Stepper:
         environment at its mission time; None once the flight is over."""
         view = self.view
         view.now_s, view.truth, view.outputs_armed = self.t_us * 1e-6, self.truth, self.armed
+        view.messages, self._unseen = self._unseen, []
         decision = self.pilot.decide(view)
         if decision is None:
             self.finished = True  # asked once more it would have nothing to decide
@@ -194,6 +197,7 @@ class Stepper:
                                   self.motors, self.armed, env, board_offset_ned=decided.board_offset_ned,
                                   step_wall_s=time.perf_counter() - timing.started, round_trip_s=round_trip)
         self._pending_inbox = self.io.take_inbox()
+        self._unseen += self._pending_inbox
         self._board_texts(self._pending_inbox)
         timing.lap("frame")
         return early

@@ -13,12 +13,21 @@ from enum import StrEnum
 from typing import Any
 
 import numpy as np
-from pymavlink.dialects.v20.common import MAV_LANDED_STATE_ON_GROUND, MAV_RESULT_ACCEPTED
+from pymavlink.dialects.v20.common import MAV_RESULT_ACCEPTED
 
 from firmware_interface.board_requests import ARM, DISARM, FORCE_DISARM, LAND, OFFBOARD, ParamSet, Request
 from hil.exit_codes import EXIT_BOARD, EXIT_EXPECT_FAILED
 from hil.judge.flight_judge import FlightFailed, FlightJudge
 from hil.loop.pilot import Ask, Decision, PilotView, RunAborted
+from hil.pilots.flight_watch import (
+    DISARMED_IN_FLIGHT_S,
+    GROUNDED_S,
+    LANDED_HEIGHT_M,
+    board_frame_offset,
+    board_landed,
+    params_set_text,
+    pending_params,
+)
 from hil.scenario.mission import MissionPlan
 from hil.scenario.reference import RefSample
 
@@ -30,9 +39,6 @@ LAND_RETRY_S = 1.0
 LANDING_TIMEOUT_S = 60.0  # from the land request to a confirmed disarm
 DISARM_AFTER_LANDED_S = 3.0  # PX4 disarms by itself 2 s after landing (COM_DISARM_LAND); ask after this
 DISARM_TIMEOUT_S = 5.0  # `end: disarm`: the forced disarm must be confirmed within this
-LANDED_HEIGHT_M = 0.2  # the board says landed: the true vehicle must be this close to the ground
-DISARMED_IN_FLIGHT_S = 0.25  # the board's outputs say disarmed this long during take-off or the mission
-GROUNDED_S = 1.0  # stepping on after the disarm, so the board's own flight log records it before it is stopped
 
 
 class Phase(StrEnum):
@@ -140,15 +146,12 @@ class BenchPilot:
         return None if self.phase is Phase.PREFLIGHT else self.plan.sample(-self.plan.takeoff_s)
 
     def _board_params_set(self, now_s: float) -> bool:
-        """The parameters the bench owes the board (e.g. EKF2_GPS_DELAY for the simulated receiver), set and
-        read back before arming; True once all are confirmed."""
-        owed, read_back = self.view.params_owed, self.view.board.params
-        pending = {name: value for name, value in owed.items()
-                   if read_back.get(name) is None or abs(read_back[name] - value) > 1e-3 * max(abs(value), 1)}
+        """The parameters the bench owes the board, set and read back before arming; True once all are confirmed."""
+        pending = pending_params(self.view)
         if not pending:
-            if owed and not self._params_reported:
+            if self.view.params_owed and not self._params_reported:
                 self._params_reported = True
-                self.view.emit("board parameters set: " + ", ".join(f"{n} = {v:g}" for n, v in owed.items()))
+                self.view.emit(params_set_text(self.view.params_owed))
             return True
         if now_s >= self._next_request_s:
             self._asks += [ParamSet(name, value) for name, value in pending.items()]
@@ -156,17 +159,9 @@ class BenchPilot:
         return False
 
     def _align_board_frame(self) -> None:
-        """Setpoints go to the board in its own local frame: the offset between its LOCAL_POSITION_NED and the
-        true position, taken when it accepts arming (on the ground, at rest) and kept for the run."""
-        local = self.view.board.latest.get("LOCAL_POSITION_NED")
-        truth = self.view.truth.pos_ned if self.view.truth is not None else np.zeros(3)
-        if local is None:
-            self.view.emit("board sent no LOCAL_POSITION_NED before arming: setpoints in the bench's frame")
-            self.board_offset_ned = np.zeros(3)
-            return
-        self.board_offset_ned = np.array((local.x, local.y, local.z)) - truth
-        self.view.emit("board frame: local origin offset [{:+.3f}, {:+.3f}, {:+.3f}] m (board - truth)".format(
-            *self.board_offset_ned))
+        """Setpoints go to the board in its own local frame, taken when it accepts arming (on the ground, at rest)
+        and kept for the run."""
+        self.board_offset_ned = board_frame_offset(self.view)
 
     def _offboard(self, now_s: float) -> RefSample | None:
         ack = self.view.board.acks.get(OFFBOARD.command)
@@ -236,7 +231,7 @@ class BenchPilot:
         if board.acks.get(LAND.command) != MAV_RESULT_ACCEPTED:
             self._request_every(now_s, LAND_RETRY_S, LAND)
             return self._end_point()  # keep offboard fed until the board has switched to landing
-        if not self._board_landed():
+        if not board_landed(self.view):
             self._landed_since_s = None
             return None
         if self._landed_since_s is None:
@@ -248,9 +243,6 @@ class BenchPilot:
             self._request_every(now_s, 1.0, DISARM)
         return None
 
-    def _board_landed(self) -> bool:
-        extended = self.view.board.latest.get("EXTENDED_SYS_STATE")
-        return extended is not None and extended.landed_state == MAV_LANDED_STATE_ON_GROUND
 
     def _finish_on_ground(self, now_s: float) -> None:
         assert self.view.truth is not None

@@ -6,14 +6,25 @@ from collections.abc import Callable
 
 from hil.loop.pilot import Pilot
 from hil.pilots.bench import BenchPilot
+from hil.pilots.external import ExternalPilot
+from hil.pilots.mission import MissionPilot
 from hil.scenario.mission import MissionPlan
+from hil.scenario.pilot_spec import MissionPilotSpec
 from hil.scenario.schema import Scenario
 
+
+def _mission(scenario: Scenario, plan: MissionPlan, dt_us: int) -> Pilot:
+    assert isinstance(scenario.pilot, MissionPilotSpec)
+    return MissionPilot(scenario.pilot.items, scenario.duration_s, dt_us)
+
+
 PILOTS: dict[str, Callable[[Scenario, MissionPlan, int], Pilot]] = {
-    "bench": lambda scenario, plan, dt_us: BenchPilot(plan, scenario.end, dt_us),
+    "bench": lambda scenario, plan, dt_us: BenchPilot(plan, str(scenario.end), dt_us),
+    "mission": _mission,
+    "external": lambda scenario, plan, dt_us: ExternalPilot(str(scenario.end), scenario.duration_s, dt_us),
 }
 
 
 def make_pilot(scenario: Scenario, plan: MissionPlan, dt_us: int) -> Pilot:
-    """The pilot the scenario names, flying `plan` on a bench clock of `dt_us` steps."""
-    return PILOTS["bench"](scenario, plan, dt_us)
+    """The pilot the scenario names, flying `plan` (the bench pilot's reference) on a bench clock of `dt_us` steps."""
+    return PILOTS[scenario.pilot.type](scenario, plan, dt_us)

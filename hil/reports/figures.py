@@ -45,15 +45,19 @@ def trajectory(view: View) -> Figure:
     fig = Figure(figsize=(WIDTH_IN, 5.5), dpi=DPI)
     step = max(1, math.ceil(len(view.t) / MAX_POINTS))
     flown, ref = view.pos_ned[::step], view.ref_ned[::step]
+    planned = view.planned_ned
+    if planned is not None and np.isnan(ref).all():  # a board flying its own mission: its plan, not a reference
+        ref = planned
+    label = "reference" if planned is None else "planned mission"
     ax3 = fig.add_subplot(1, 2, 1, projection="3d")
-    ax3.plot(ref[:, 0], ref[:, 1], -ref[:, 2], color=TRUTH, label="reference")
+    ax3.plot(ref[:, 0], ref[:, 1], -ref[:, 2], color=TRUTH, label=label, marker="o" if planned is not None else "")
     ax3.plot(flown[:, 0], flown[:, 1], -flown[:, 2], color=COMMANDED, linestyle="--", label="flown (truth)")
     ax3.set_xlabel("north (m)")
     ax3.set_ylabel("east (m)")
     ax3.set_zlabel("height (m)")
     ax3.legend(fontsize=8)
     top = fig.add_subplot(1, 2, 2)
-    top.plot(ref[:, 1], ref[:, 0], color=TRUTH, label="reference")
+    top.plot(ref[:, 1], ref[:, 0], color=TRUTH, label=label, marker="o" if planned is not None else "")
     top.plot(flown[:, 1], flown[:, 0], color=COMMANDED, linestyle="--", linewidth=1.0, label="flown (truth)")
     top.plot(flown[0, 1], flown[0, 0], "go", label="start")
     top.plot(flown[-1, 1], flown[-1, 0], "ks", label="end")
@@ -66,7 +70,9 @@ def trajectory(view: View) -> Figure:
     return fig
 
 
-def position_error(view: View) -> Figure:
+def position_error(view: View) -> Figure | None:
+    if np.isnan(view.ref_ned).all():  # no reference was streamed: a board flying its own mission
+        return None
     fig, axes = new_figure(view, 3, 6.5)
     error = view.pos_ned - view.ref_ned
     for i, ax in enumerate(axes[:, 0]):

@@ -90,7 +90,14 @@ def checks(bounds: Bounds, metrics: dict[str, Any]) -> list[Check]:
         found = (metrics.get("timing") or {}).get("realtime_factor")
         out.append(Check("real-time factor", _measured(found, ""), f"≥ {bounds.min_realtime_factor:g}",
                          found is not None and found >= bounds.min_realtime_factor))
-    return out
+    return out + [_behaviour_check(verdict) for verdict in metrics.get("verdicts", [])]
+
+
+def _behaviour_check(verdict: dict[str, Any]) -> Check:
+    """A behaviour expectation as the judge decided it (hil.judge.behaviour), with the time it was decided."""
+    when = verdict["decided_mission_t"]
+    at = (f"mission time {when:.2f} s" if when is not None else f"bench time {verdict['decided_t_us'] * 1e-6:.2f} s")
+    return Check(f"{verdict['expectation']} (decided at {at})", verdict["found"], verdict["bound"], verdict["met"])
 
 
 def _measured(value: float | None, unit: str) -> str:
@@ -165,6 +172,16 @@ def _listing(items: list[dict[str, Any]], describe: Any) -> str:
     return "; ".join(describe(i) for i in items) or "none"
 
 
+def _flown_row(scenario: dict[str, Any], reference: dict[str, Any]) -> list[str]:
+    """What the flight followed: the bench pilot's reference, or who else flew and what mission."""
+    pilot = scenario.get("pilot") or {"type": "bench"}
+    if pilot["type"] == "bench":
+        return ["reference", f"{reference.get('type')}: {_items(reference, ('type',))}"]
+    items = pilot.get("items") or []
+    mission = f", {len(items)} mission items" + (f" from {Path(pilot['plan']).name}" if pilot.get("plan") else "")
+    return ["pilot", f"{pilot['type']}{mission if items else ''}"]
+
+
 def scenario_rows(flight: Flight) -> list[list[str]]:
     """The resolved scenario at a glance: what flew, on what, through what."""
     s, summary = flight.scenario, _summary_lines(flight.summary)
@@ -181,7 +198,7 @@ def scenario_rows(flight: Flight) -> list[list[str]]:
         ["flight code", summary.get("flight code", f"controller {s.get('board', {}).get('controller')}")],
         ["vehicle", f"{vehicle.get('preset')}{' with ' + overrides if overrides else ''}"],
         ["rate, duration", f"{s.get('rate_hz'):g} Hz, mission {s.get('duration_s'):g} s, then {s.get('end')}"],
-        ["reference", f"{reference.get('type')}: {_items(reference, ('type',))}"],
+        _flown_row(s, reference),
         ["wind", _wind(s.get("wind", {}))],
         ["gusts", _listing(s.get("wind", {}).get("gusts", []), lambda g: f"at {g['start_s']:g} s for "
                            f"{g['duration_s']:g} s, peak {_vec(g['peak_ned'])} m/s NED")],

@@ -21,7 +21,10 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from firmware_interface.geodesy import LocalFrame
+from hil.judge.planned_path import PlannedPath
 from hil.reports.rundata import Flight
+from hil.scenario.mission_items import PlanItem
 
 DPI = 100
 WIDTH_IN = 13.0
@@ -184,9 +187,21 @@ class View:
         t_us = np.array([s["t_us"] for s in flight.samples("state")], dtype=np.int64)
         ref = np.full((len(t_us), 3), np.nan)
         at = state_index(t_us, np.array([s["t_us"] for s in flight.samples("reference")], dtype=np.int64))
-        ref[at[at >= 0]] = flight.column("reference", "pos_ned")[at >= 0]
+        if (at >= 0).any():  # a board flying its own mission streams no reference
+            ref[at[at >= 0]] = flight.column("reference", "pos_ned")[at >= 0]
         return cls(flight, bounds, markers_of(flight), flight.time("state"), t_us, flight.column("state", "pos_ned"),
                    ref, flight.column("state", "rpy"), ~np.array([s["on_ground"] for s in flight.samples("state")]))
+
+    @cached_property
+    def planned_ned(self) -> np.ndarray | None:
+        """The planned mission's positions in order (NED about home), for a board flying its own mission."""
+        pilot = self.flight.scenario.get("pilot") or {}
+        if not pilot.get("items"):
+            return None
+        home = self.flight.scenario.get("home") or {}
+        frame = LocalFrame(home.get("lat_deg", 0.0), home.get("lon_deg", 0.0), home.get("alt_msl_m", 0.0))
+        path = PlannedPath([PlanItem.model_validate(item) for item in pilot["items"]], frame)
+        return np.array([path.points[seq] for seq in sorted(path.points)]) if path.points else None
 
     @cached_property
     def disturbance_in_air_ned(self) -> np.ndarray:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import gc
 import json
+import math
 import mmap
 import struct
 from collections import defaultdict
@@ -240,6 +241,9 @@ def _in_mission(flight: Flight, channel: str, first_us: int, last_us: int) -> tu
     return np.array([s["t_us"] - flight.mission_start_us for s in samples]) * 1e-6, samples
 
 
+_NO_REFERENCE = (math.nan, math.nan, math.nan)  # a step without a setpoint (a board flying its own mission)
+
+
 def load_run(run_dir: Path) -> RunData:
     """The mission phase of a run (raises NoFlightData without one)."""
     flight = load_flight(run_dir, ("state", "reference", "environment", "board/attitude_target", "board/estimates"))
@@ -255,7 +259,7 @@ def load_run(run_dir: Path) -> RunData:
         name=flight.scenario["name"], controller=flight.scenario["board"]["controller"],
         t=np.array([s["mission_t"] for s in states]),
         pos=np.array([s["pos_ned"] for s in states]).reshape(-1, 3),
-        ref=np.array([refs[s["t_us"]] for s in states]).reshape(-1, 3),
+        ref=np.array([refs.get(s["t_us"], _NO_REFERENCE) for s in states]).reshape(-1, 3),  # NaN: a board's own
         rpy=np.array([s["rpy"] for s in states]).reshape(-1, 3),
         mass=np.array([s["total_mass"] for s in states]),
         force=np.array([envs[s["t_us"]] for s in states]).reshape(-1, 3),

@@ -18,7 +18,7 @@ from firmware_interface.board import BoardError
 from firmware_interface.link import FrameTap, LinkError, TlogWriter
 from firmware_interface.link.dialect import message_name
 from hil.boards.emulator import EmulatorTarget
-from hil.boards.gcs_relay import GcsBridge
+from hil.boards.gcs_relay import GcsBridge, default_endpoints
 from hil.boards.handle import BoardHandle
 from hil.boards.target import BoardPolicy, BoardTarget, LinkSettings
 from hil.exit_codes import (
@@ -31,6 +31,7 @@ from hil.exit_codes import (
     EXIT_OK,
 )
 from hil.host.stop_signals import stopped_by_signals
+from hil.judge.behaviour import behaviour_judge
 from hil.judge.metrics import MetricsCollector, check_expectations
 from hil.loop.sink import Outcome, Sink
 from hil.loop.stepper import Progress, Stepper
@@ -57,6 +58,8 @@ class RunOptions:
     telemetry_rates_hz: dict[str, float] = field(default_factory=dict)
     gcs: list[str] | None = None  # ground-station endpoints; None: the board kind's default
     foxglove: str | None = None  # HOST:PORT of a live Foxglove WebSocket server; None: none
+    speed_factor: float = 1.0  # a lockstep board paced at this many times the wall clock (an outside pilot's runs
+    # are paced, at 1 by default: PX4's simulators' convention, PX4_SIM_SPEED_FACTOR)
 
 
 @dataclass
@@ -109,7 +112,8 @@ class _Run:
     def prepare(cls, scenario: Scenario, options: RunOptions) -> _Run:
         """The run's directory and its disk watch (OSError when there is no room even for them)."""
         policy = options.board.policy(scenario)
-        paced = options.realtime or policy.wall_clock or bool(scenario.faults.link)
+        paced = (options.realtime or policy.wall_clock or bool(scenario.faults.link) or options.speed_factor != 1.0
+                 or scenario.pilot.type == "external")  # someone on the other side lives in wall-clock time
         run_dir = make_run_dir(options.runs_root, scenario.name)
         try:
             disk = DiskWatch(run_dir)
@@ -122,8 +126,8 @@ class _Run:
     def meta(self) -> dict[str, Any]:
         scenario = self.scenario
         return {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
-                "board": self.options.board.label, "board_kind": self.policy.kind,
-                "pacing": "realtime" if self.paced else "lockstep"}
+                "board": self.options.board.label, "board_kind": self.policy.kind, "pilot": scenario.pilot.type,
+                "pacing": "realtime" if self.paced else "lockstep", "speed_factor": self.options.speed_factor}
 
     def output_context(self) -> OutputContext:
         report = self.report
@@ -137,31 +141,38 @@ class _Run:
         scenario, report = self.scenario, self.report
         plan = MissionPlan.build(scenario)
         parameters = vehicle_parameters(scenario, plan)
-        settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(parameters))
+        settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(parameters), self.options.speed_factor)
         try:
             report.handle = handle = self.options.board.attach(scenario, self.run_dir, settings)
         except (BoardError, LinkError) as exc:
             report.reason, report.code = f"board/link failure: {exc}", EXIT_BOARD
             return
         stack.callback(handle.close)  # before the outputs close: the board is stopped first
-        report.board_text = handle.description + _relay(handle, self.policy, self.options.gcs)
+        report.board_text = handle.description + _relay(handle, self.policy, self.options.gcs, scenario.pilot.type)
         world = build_world(scenario, handle, parameters)
         stack.callback(world.plant.close)
         metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
+        expect = scenario.expect.for_board(self.policy.px4) if scenario.expect else None
+        behaviour = behaviour_judge(scenario, expect)
         pilot = make_pilot(scenario, plan, step_us(scenario))
-        stepper = Stepper(world, handle, pilot, [metrics, *sinks], step_us(scenario), self.paced,
-                          self.policy.ground_truth, progress)
+        stepper = Stepper(world, handle, pilot, [metrics, behaviour, *sinks], step_us(scenario), self.paced,
+                          self.policy.ground_truth, progress, self.options.speed_factor)
         result = stepper.run()
         report.reason, report.code, report.internal_error = result.reason, result.exit_code, result.internal_error
         report.final_t_us = stepper.t_us
         report.metrics = {**metrics.compute(), "timing": stepper.timing.figures(self.paced),
                           "link": handle.hil_session.link.counters, **pilot.summary(),
-                          **_link_figures(stepper, handle)}
+                          "behaviour": behaviour.figures(), **_link_figures(stepper, handle)}
         if report.code == EXIT_BOARD and (note := handle.exit_note()):
             report.reason = f"{report.reason}; {note}"
         if report.code == EXIT_OK:
-            expect = scenario.expect.for_board(self.policy.px4) if scenario.expect else None
-            report.failures = check_expectations(expect, report.metrics)
+            verdicts = behaviour.verdicts(expect)
+            report.failures = check_expectations(expect, report.metrics) + [v.line() for v in verdicts if not v.met]
+            report.metrics["verdicts"] = [v.as_dict() for v in verdicts]
+            for verdict in verdicts:  # in the recording at the time each was decided
+                for sink in stepper.sinks:
+                    sink.on_event(verdict.decided_t_us, f"expect {'met' if verdict.met else 'NOT met'}: "
+                                                        f"{verdict.line()}")
             report.code = EXIT_EXPECT_FAILED if report.failures else EXIT_OK
 
 
@@ -209,10 +220,10 @@ def _run(scenario: Scenario, options: RunOptions, extra_sinks: list[Sink], progr
                       kept=not never_connected or options.keep_failed)
 
 
-def _relay(handle: BoardHandle, policy: BoardPolicy, endpoints: list[str] | None) -> str:
-    """Relay the board's traffic to ground stations (the kind's default when the user names none); with none, a
+def _relay(handle: BoardHandle, policy: BoardPolicy, endpoints: list[str] | None, pilot: str) -> str:
+    """Relay the board's traffic to ground stations (`default_endpoints` when the user names none); with none, a
     board that streams much is asked to stop what nobody reads. Returns the note for the summary's board line."""
-    chosen = list(policy.default_gcs) if endpoints is None else endpoints
+    chosen = default_endpoints(policy.default_gcs, pilot == "bench") if endpoints is None else endpoints
     if chosen:
         handle.relay_to(GcsBridge(chosen))
         return f"; ground station relay to {', '.join(chosen)}"

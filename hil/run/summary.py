@@ -8,6 +8,7 @@ import textwrap
 from typing import Any
 
 from hil.exit_codes import verdict
+from hil.judge.behaviour import Verdict
 from hil.judge.metrics import slip_note
 from hil.scenario.schema import Scenario
 
@@ -39,6 +40,12 @@ def _error_table(metrics: dict[str, Any]) -> str:
     console.print(table)
     text = console.file.getvalue()  # type: ignore[attr-defined]
     return "\n".join(line.rstrip() for line in text.splitlines())
+
+
+def _expectation_lines(metrics: dict[str, Any], failures: list[str]) -> list[str]:
+    """Met or not, each expectation not met (-), and each behaviour expectation met (+) with when it was decided."""
+    return ["expectations: " + ("met" if not failures else "NOT met"), *(f"  - {f}" for f in failures),
+            *(f"  + {Verdict(**v).line()}" for v in metrics.get("verdicts", []) if v["met"])]
 
 
 def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str, code: int,
@@ -76,7 +83,6 @@ def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str
         lines.append(f"link: {link.get('frames_in', 0)} frames in, {link.get('frames_out', 0)} out; "
                      f"errors: {errors or 'none'}")
     if scenario.expect is not None and reason == "completed":  # checked only for a flight that completed
-        lines.append("expectations: " + ("met" if not failures else "NOT met"))
-        lines += [f"  - {f}" for f in failures]
+        lines += _expectation_lines(metrics, failures)
     return "\n".join(textwrap.fill(line, SUMMARY_WIDTH, subsequent_indent="    ", break_on_hyphens=False)
                      if len(line) > SUMMARY_WIDTH else line for line in lines) + "\n"

@@ -30,6 +30,7 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from firmware_interface.airframes import AirframeName
 from firmware_interface.emulator.config import build_config
 from firmware_interface.emulator.control.registry import ControllerName
+from firmware_interface.px4_modes import PX4_MODE_NAMES
 from hil.channels import CHANNEL_MODELS
 from hil.scenario.expressions import ExpressionError, compile_expression
 from hil.scenario.fields import (
@@ -44,6 +45,8 @@ from hil.scenario.fields import (
     UntilEnd,
     WindVector,
 )
+from hil.scenario.pilot_checks import pilot_problems, resolve_end
+from hil.scenario.pilot_spec import BenchPilotSpec, End, PilotSpec
 from hil.scenario.reference import HoverRef, Reference
 from hil.scenario.vehicles import plant_parameters, thrust_to_weight
 from hil.sensors.faults import SensorFault
@@ -68,10 +71,12 @@ ExpressionOrNumber: TypeAlias = Annotated[Annotated[float, Tag("number")] | Anno
 ErrorBound: TypeAlias = Annotated[
     Annotated[PositiveFloat, Tag("number")]
     | Annotated[tuple[PositiveFloat, PositiveFloat, PositiveFloat], Tag("other")], _number_unless((list, tuple))]
-if TYPE_CHECKING:  # the names are data (the channel table); to a type checker a channel name is a string
+if TYPE_CHECKING:  # the names are data (the channel table, PX4's modes); to a type checker they are strings
     ChannelName = str
+    PX4ModeName = str
 else:
     ChannelName = Literal[tuple(CHANNEL_MODELS)]
+    PX4ModeName = Literal[PX4_MODE_NAMES]
 
 
 _BOUNDS: dict[str, dict[str, float]] = {  # FMU parameters beyond finite; any other parameter is any number
@@ -213,6 +218,13 @@ class Bounds(ScenarioModel):
     max_error_m: ErrorBound | None = None  # m, on all axes or per axis
     max_attitude_error_deg: PositiveFloat | None = None
     min_realtime_factor: PositiveFloat | None = None
+    # behaviour, judged on the truth and on what the board reported, whoever flies
+    mission_completed: bool | None = None  # every item of the planned mission reached, in order
+    home_within_m: Length | None = None  # where the vehicle came to rest, horizontally from home
+    max_cross_track_m: Length | None = None  # from the planned leg being flown
+    disarmed_by_s: MissionTime | None = None  # disarmed on the ground by this mission time (s after take-off)
+    max_altitude_m: Length | None = None  # height above home, the whole flight
+    modes_seen: list[PX4ModeName] | None = None  # PX4's modes (HEARTBEAT.custom_mode), each at least once
 
 
 class Expect(Bounds):
@@ -263,13 +275,16 @@ class Scenario(ScenarioModel):
     faults: Faults = Faults()
     board: Board = Board()
     telemetry: Telemetry = Telemetry()
-    end: Literal["land", "disarm"] = "land"  # after the mission: land then disarm, or disarm where it is
+    pilot: PilotSpec = BenchPilotSpec()
+    end: End | None = None  # how the run ends: one of ENDS[pilot.type], by default the first
     expect: Expect | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
         """The checks across fields, each a separate error at its own field."""
+        resolve_end(self)
         errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors(),
+                  *(_check(*problem) for problem in pilot_problems(self)),
                   *self._payload_errors(), *self._reference_errors()]
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
