@@ -133,3 +133,27 @@ def test_velocity_tends_to_steady_wind(fmu_path):
         out = run(plant, u, 60.0, dt=0.01)  # drag time constant m / c = 4 s
         vel = out[[plant.output_index[f"vel_{a}"] for a in "ne"]]
         assert vel == pytest.approx(wind[:2], abs=1e-3)
+
+
+def test_a_vehicle_that_touches_down_tilted_settles_level_at_rates_its_gyro_reads(fmu_path):
+    """Dropped from 0.5 m while a roll torque tilts it, the vehicle stops where it touches down and rocks onto its
+    legs: on the ground roll decays as exp(-t/0.1 s) (the settling time constant), the body rate the plant reports
+    is that decay's rate, -roll/0.1 s (what a gyro reads, so an estimator follows the attitude), heading and
+    position stay."""
+    params = {"init_pos_d": -0.5, "drag_coeff_x": 0.0, "drag_coeff_y": 0.0, "drag_coeff_z": 0.0, "Ixx": 0.02}
+    dt = 0.001
+    with Plant(params, fmu_path) as plant:
+        plant.set_inputs(inputs(plant, [0] * 4, tau_dist_x=0.08))  # 4 rad/s²: ~0.2 rad at touch-down
+        index = plant.output_index
+        out = plant.outputs()
+        while not plant.on_ground:
+            out = plant.step(dt)
+        plant.set_inputs(inputs(plant, [0] * 4))
+        roll_0, yaw_0, pos_0 = out[index["roll"]], out[index["yaw"]], out[[index[f"pos_{a}"] for a in "ned"]]
+        assert 0.1 < roll_0 < 0.3
+        for _ in range(100):  # 0.1 s on the ground
+            out = plant.step(dt)
+            assert out[index["rate_x"]] == pytest.approx(-out[index["roll"]] / 0.1, rel=1e-9)
+        assert out[index["roll"]] == pytest.approx(roll_0 * math.exp(-1.0), rel=2e-3)  # RK4 at 1 ms
+        assert out[index["yaw"]] == pytest.approx(yaw_0, abs=1e-12)
+        assert np.array_equal(out[[index[f"pos_{a}"] for a in "ned"]], pos_0) and plant.on_ground

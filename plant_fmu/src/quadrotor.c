@@ -28,6 +28,7 @@
 #define X_Q 6
 #define X_W 10
 #define X_T 13
+#define SETTLE_TAU_S 0.1 /* a vehicle touching down tilted settles onto its legs with this time constant */
 
 typedef struct {
     double r[NVARS];
@@ -291,7 +292,28 @@ static void free_accel(const Model *m, const double *x, double acc[3]) {
 
 static double ground_d(const Model *m) { return -P(m, ground_height); }
 
-/* dx/dt. While in ground contact the body is held: only the rotors evolve. */
+/* Body rates that level the attitude on the ground, keeping the heading: roll and pitch decay with SETTLE_TAU_S
+   (Euler rates -roll/tau, -pitch/tau, yaw rate 0, turned into body rates), so a vehicle that touches down tilted
+   rocks onto its legs at rates its gyro sees instead of being levelled in one step. */
+static void settle_rates(const double *q, double w[3]) {
+    double roll = atan2(2 * (q[0] * q[1] + q[2] * q[3]), 1 - 2 * (q[1] * q[1] + q[2] * q[2]));
+    double s = 2 * (q[0] * q[2] - q[3] * q[1]);
+    double pitch = asin(s > 1 ? 1 : (s < -1 ? -1 : s));
+    double roll_dot = -roll / SETTLE_TAU_S, pitch_dot = -pitch / SETTLE_TAU_S;
+    w[0] = roll_dot;
+    w[1] = cos(roll) * pitch_dot;
+    w[2] = -sin(roll) * pitch_dot;
+}
+
+static void quat_rate(const double *q, const double *w, double *q_dot) {
+    /* q_dot = 0.5 q (x) (0, w) */
+    q_dot[0] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2]);
+    q_dot[1] = 0.5 * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1]);
+    q_dot[2] = 0.5 * (q[0] * w[1] - q[1] * w[2] + q[3] * w[0]);
+    q_dot[3] = 0.5 * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0]);
+}
+
+/* dx/dt. While in ground contact the body is held in place and only settles level; the rotors evolve. */
 static void derivatives(const Model *m, const double *x, int contact, double *dx) {
     const double *q = x + X_Q, *w = x + X_W, *thrust = x + X_T;
     double tau[3];
@@ -301,7 +323,10 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
         dx[X_T + i] = tau_m > 0 && i < rotor_count(m) ? (thrust_command(m, i) - thrust[i]) / tau_m : 0;
     dx[X_CHARGE] = battery_current(m, x);
     if (contact) {
+        double w_settle[3];
         memset(dx, 0, sizeof(double) * X_T);
+        settle_rates(q, w_settle);
+        quat_rate(q, w_settle, dx + X_Q);
         return;
     }
     double R[3][3], f_b[3];
@@ -310,11 +335,7 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
     for (int i = 0; i < 3; i++) dx[X_POS + i] = x[X_VEL + i];
     accel_from_force(m, R, f_b, dx + X_VEL);
 
-    /* q_dot = 0.5 q (x) (0, w) */
-    dx[X_Q + 0] = 0.5 * (-q[1] * w[0] - q[2] * w[1] - q[3] * w[2]);
-    dx[X_Q + 1] = 0.5 * (q[0] * w[0] + q[2] * w[2] - q[3] * w[1]);
-    dx[X_Q + 2] = 0.5 * (q[0] * w[1] - q[1] * w[2] + q[3] * w[0]);
-    dx[X_Q + 3] = 0.5 * (q[0] * w[2] + q[1] * w[1] - q[2] * w[0]);
+    quat_rate(q, w, dx + X_Q);
 
     /* I w_dot = tau - w x I w */
     tau[0] += m->r[VR_tau_dist_x];
@@ -328,12 +349,6 @@ static void derivatives(const Model *m, const double *x, int contact, double *dx
 static void normalize_quat(double *q) {
     double n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
     for (int i = 0; i < 4; i++) q[i] /= n;
-}
-
-/* Level the attitude, keeping heading: a landed quad sits on its legs. */
-static void level_keep_yaw(double *q) {
-    double yaw = atan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] * q[2] + q[3] * q[3]));
-    q[0] = cos(yaw / 2); q[1] = 0; q[2] = 0; q[3] = sin(yaw / 2);
 }
 
 /* Contact holds while the body touches the ground and the free forces push it down. */
@@ -362,13 +377,13 @@ static void rk4_step(Model *m, double h) {
     if (P(m, motor_tau) <= 0)
         for (int i = 0; i < rotor_count(m); i++) m->x[X_T + i] = thrust_command(m, i);
     normalize_quat(m->x + X_Q);
-    if (m->x[X_POS + 2] > ground_d(m)) { /* touched down during this step */
+    if (m->x[X_POS + 2] > ground_d(m)) { /* touched down during this step: it stops and starts to settle */
         m->x[X_POS + 2] = ground_d(m);
         memset(m->x + X_VEL, 0, 3 * sizeof(double));
-        memset(m->x + X_W, 0, 3 * sizeof(double));
-        level_keep_yaw(m->x + X_Q);
         m->contact = 1;
     }
+    if (m->contact) /* on the ground the body turns only as it settles, and the gyro reads that turn */
+        settle_rates(m->x + X_Q, m->x + X_W);
 }
 
 /* Copy the state and derived quantities into the output variables. */
