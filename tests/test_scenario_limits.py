@@ -100,8 +100,9 @@ def test_output_is_bounded_to_twenty_lines_and_echoed_values_to_80_characters():
 
 
 def test_thrust_to_weight_of_the_presets():
-    assert thrust_to_weight({}) == pytest.approx(20 / 9.80665)  # the FMU's defaults: 1 kg, 4 x 5 N
-    assert thrust_to_weight(PLANT_PRESETS["paper_airframe"], payload_kg=4.0) == pytest.approx(160 / (5 * 9.80665))
+    assert thrust_to_weight({}, 4) == pytest.approx(20 / 9.80665)  # the FMU's defaults: 1 kg, 4 x 5 N
+    assert thrust_to_weight(PLANT_PRESETS["paper_airframe"], 4, payload_kg=4.0) == pytest.approx(160 / (5 * 9.80665))
+    assert thrust_to_weight(PLANT_PRESETS["inspection_hexa"], 6) == pytest.approx(30 / 9.80665)  # 6 x 5 N
 
 
 @pytest.mark.parametrize("text", WRITTEN_BY_TESTS, ids=[t.split("\n")[0] for t in WRITTEN_BY_TESTS])

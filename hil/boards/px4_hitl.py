@@ -48,10 +48,11 @@ class Px4HitlTarget:
             pair.release_slave()
             raise
         session = BoardSession(Link(pair.master, tap=settings.tap), ON_OWN_CLOCK, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors)
+                               reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session,
                              f"PX4 HITL rehearsal, instance {claim.number} ({self.build.root}) on {pair.slave_path}",
-                             px4, px4_parameters(scenario))
+                             px4, px4_parameters(scenario, settings.rotors))
         try:
             session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"is {self.build.root} a px4_sitl_nolockstep build? "
                                    f"see {px4.log_path}", still_starting=px4.check_starting)

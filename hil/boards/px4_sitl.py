@@ -55,11 +55,12 @@ class Px4SitlTarget:
             claim.release()
             raise
         session = BoardSession(Link(listener, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors)
+                               reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"PX4 SITL instance {n} ({self.build.root}), simulator "
                              f"tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, commands udpout:127.0.0.1:"
                              f"{SITL_OFFBOARD_PORT + n}, QGroundControl: udp {SITL_GCS_PORT}",
-                             process=px4, params=px4_parameters(scenario))
+                             process=px4, params=px4_parameters(scenario, settings.rotors))
         try:
             commands = open_link(f"udpout:127.0.0.1:{SITL_OFFBOARD_PORT + n}", tap=settings.tap)
             handle.command_session = BoardSession(commands, SIMULATED, watchdog_s=settings.watchdog_s)

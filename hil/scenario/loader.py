@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
 from hil.scenario.expressions import echo
-from hil.scenario.schema import CHECK_ERROR, Scenario
+from hil.scenario.schema import CHECK_ERROR, SCENARIO_DIR, Scenario
 
 MAX_BYTES = 1_000_000  # a scenario or a sweep is a few kB
 MAX_DEPTH = 20  # nested mappings and lists; a scenario or a sweep needs 5
@@ -239,6 +239,6 @@ def load_scenario(path: Path) -> Scenario:
         found = "an empty file" if data is None else type(data).__name__
         raise _fail(path, f"expected a mapping of scenario fields, found {found}", 1)
     try:
-        return Scenario.model_validate(data)
+        return Scenario.model_validate(data, context={SCENARIO_DIR: path.parent})
     except ValidationError as exc:
         raise ScenarioError(located_problems(path, index, exc)) from None
