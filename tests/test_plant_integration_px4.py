@@ -59,8 +59,8 @@ def test_px4_sitl_becomes_a_hexa_x_by_parameters_and_flies_our_hexa_through_a_gu
     """The bench sets the hexa on PX4 SITL's airframe 10016 (a quad) while it is disarmed, and reads each
     parameter back; PX4 applies them without a reboot: its log shows them changed, its vehicle type a hexarotor,
     and its control allocation's actuator_motors driving six motors in flight, each near the hover share."""
-    result = hil_run(str(short_gust(tmp_path, "inspection_hexa")), "--px4", str(sitl), "--no-report",
-                     runs=tmp_path / "runs")
+    hexa = short_gust(tmp_path, "vehicle: {preset: inspection_hexa}\n")
+    result = hil_run(str(hexa), "--px4", str(sitl), "--no-report", runs=tmp_path / "runs")
     assert result.returncode == 0, result.stdout + result.stderr
     run_dir = only_run_dir(tmp_path / "runs")
     ulog = px4_log(run_dir, ["actuator_motors", "vehicle_status", "vehicle_land_detected", "vehicle_command_ack"])
