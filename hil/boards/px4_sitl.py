@@ -3,6 +3,7 @@ in the run directory, lockstep over TCP, commands on its offboard/API UDP port."
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -11,7 +12,7 @@ from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link
 from hil.boards.handle import BoardHandle
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
-from hil.boards.px4.parameters import px4_parameters
+from hil.boards.px4.parameters import px4_parameters, write_sitl_rotor_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.target import BoardPolicy, LinkSettings
 from hil.scenario.schema import Scenario
@@ -47,8 +48,10 @@ class Px4SitlTarget:
         claim, listener = claim_instance(_reserve_simulator_port)
         n = claim.number
         try:
+            folder = write_sitl_rotor_parameters(run_dir.resolve(), settings.rotors).parent  # first on PX4's PATH
             px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log",
-                             {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1"},
+                             {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1",
+                              "PATH": f"{folder}{os.pathsep}{os.environ.get('PATH', '')}"},
                              preexec=partial(child_setup, n))
         except BaseException:
             listener.close()

@@ -1,6 +1,10 @@
-"""What a PX4 the bench started is told about the simulated vehicle, as a user configures a real one."""
+"""What a PX4 the bench started is told about the simulated vehicle, as a user configures a real one: the plant's
+rotors at start-up (its start-up script sets them after the airframe's defaults, before any module starts), and
+every parameter again through PARAM_SET, read back before arming."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
@@ -17,6 +21,22 @@ def px4_parameters(scenario: Scenario, rotors: RotorGeometry | None) -> dict[str
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     params: dict[str, float | int] = {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
     return params | (rotor_parameters(rotors) if rotors is not None else {})
+
+
+def param_set_lines(params: dict[str, float | int]) -> str:
+    """`param set` lines for PX4's start-up shell, every value in full (repr)."""
+    return "".join(f"param set {name} {value!r}\n" for name, value in params.items())
+
+
+def write_sitl_rotor_parameters(folder: Path, rotors: RotorGeometry | None) -> Path:
+    """`px4-rc.params` in `folder`, which PX4 SITL's rcS sources after the airframe ("user defined params for
+    instances can be in PATH": put `folder` first on PX4's PATH). Set there, the rotors are in place before the
+    control allocator and the output driver start; set only while PX4 runs, a change of an output's function
+    was once seen not to reach `pwm_out_sim` before arming (motors 5 and 6 silent), which it then defers."""
+    path = folder / "px4-rc.params"
+    lines = param_set_lines(rotor_parameters(rotors)) if rotors is not None else ""
+    path.write_text("#!/bin/sh\n# Written by hil-bench: the plant's rotors on PX4 SITL's airframe\n" + lines)
+    return path
 
 
 def rotor_parameters(rotors: RotorGeometry) -> dict[str, float | int]:
