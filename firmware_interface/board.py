@@ -7,6 +7,7 @@ code talks to a Pixhawk, PX4 SITL and the emulator; `board_requests` has what th
 
 from __future__ import annotations
 
+import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -16,6 +17,7 @@ from pymavlink.dialects.v20.common import (
     MAV_AUTOPILOT_INVALID,
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_FRAME_LOCAL_NED,
+    MAV_PARAM_TYPE_INT32,
     MAV_PARAM_TYPE_REAL32,
     MAV_TYPE_GCS,
     POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
@@ -25,6 +27,18 @@ from firmware_interface import hil_codec as codec
 from firmware_interface.board_requests import BoardError, ParamSet, ProtocolMessage, Request
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
+
+
+def int32_as_float(value: int) -> float:
+    """An INT32 parameter in PARAM_SET's float field, byte for byte (the MAVLink parameter protocol's bytewise
+    encoding, which PX4 uses: it copies the field's four bytes into the parameter)."""
+    return float(struct.unpack("<f", struct.pack("<i", value))[0])
+
+
+def float_as_int32(wire: float) -> int:
+    """PARAM_VALUE's float field read back as the INT32 whose bytes it carries."""
+    return int(struct.unpack("<i", struct.pack("<f", wire))[0])
+
 
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
 SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
@@ -87,13 +101,15 @@ class BoardSession:
 
     def __init__(self, link: Link, policy: LinkPolicy, heartbeat_period_s: float = 1.0,
                  watchdog_s: float = 1.0, free_run_wait_s: float = 0.01,
-                 clock: Callable[[], float] = time.monotonic, reversible_motors: bool = False) -> None:
+                 clock: Callable[[], float] = time.monotonic, reversible_motors: bool = False,
+                 motor_count: int = 4) -> None:
         self.link = link
         self.policy = policy
         self.heartbeat_period_s = heartbeat_period_s
         self.watchdog_s = watchdog_s
         self.free_run_wait_s = free_run_wait_s
         self.reversible_motors = reversible_motors  # PX4 outputs reversible motors as -1..1
+        self.motor_count = motor_count  # HIL_ACTUATOR_CONTROLS' first outputs that drive the plant's rotors
         self.clock = clock
         self.report = BoardReport()
         self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
@@ -186,7 +202,7 @@ class BoardSession:
         if self.relay is not None and not kind.startswith("HIL_"):
             self.relay.append(bytes(msg.get_msgbuf()))
         if kind == "HIL_ACTUATOR_CONTROLS":
-            self.actuators = codec.read_actuator_controls(msg, reversible=self.reversible_motors)
+            self.actuators = codec.read_actuator_controls(msg, self.motor_count, reversible=self.reversible_motors)
             if not self.policy.own_clock:
                 self.lockstep = self.lockstep or self.actuators.lockstep
             if self._awaited_t_us is not None and self.actuators.t_us >= self._awaited_t_us:
@@ -196,7 +212,8 @@ class BoardSession:
         elif kind == "COMMAND_ACK":
             self.report.acks[msg.command] = msg.result
         elif kind == "PARAM_VALUE":
-            self.report.params[msg.param_id] = float(msg.param_value)
+            integer = msg.param_type == MAV_PARAM_TYPE_INT32
+            self.report.params[msg.param_id] = float(float_as_int32(msg.param_value) if integer else msg.param_value)
         elif kind == "STATUSTEXT":
             text = self._statustext(msg)
             if text is None:
@@ -346,11 +363,14 @@ class BoardSession:
                        param6=p[5], param7=p[6])
 
     def set_param(self, name: str, value: float) -> None:
-        """PARAM_SET of a float parameter without waiting; PX4 answers with PARAM_VALUE (see `report.params`)."""
+        """PARAM_SET without waiting: REAL32, or INT32 when `value` is a Python int (PX4 refuses a type that is not
+        the parameter's); PX4 answers with PARAM_VALUE (see `report.params`)."""
         system, component = self._target()
         self.report.params.pop(name, None)
+        wire, kind = (int32_as_float(value), MAV_PARAM_TYPE_INT32) if isinstance(value, int) else (
+            float(value), MAV_PARAM_TYPE_REAL32)
         self.link.send("PARAM_SET", target_system=system, target_component=component, param_id=name,
-                       param_value=float(value), param_type=MAV_PARAM_TYPE_REAL32)
+                       param_value=wire, param_type=kind)
 
     def ask(self, ask: Request | ParamSet | ProtocolMessage) -> None:
         """Send a command, a parameter or a protocol's message without waiting for the answer."""

@@ -41,10 +41,11 @@ class ProtocolMessage:
 
 @dataclass(frozen=True)
 class ParamSet:
-    """A PARAM_SET of a float parameter: the board answers with PARAM_VALUE (`BoardReport.params`)."""
+    """A PARAM_SET: a float parameter (REAL32) or an int one (INT32); the board answers with PARAM_VALUE
+    (`BoardReport.params`)."""
 
     name: str
-    value: float
+    value: float | int
 
 
 ARM = Request(MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))

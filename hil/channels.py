@@ -14,6 +14,7 @@ from typing import Annotated, Any, Literal
 import orjson
 from pydantic import BaseModel, ConfigDict, Field
 
+from firmware_interface.emulator.config import MAX_ROTORS
 from firmware_interface.emulator.control.registry import INTERNAL_KEYS
 
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
@@ -39,7 +40,7 @@ class State(_Sample):
     q_wxyz: Quat = _f("true attitude, quaternion FRD → NED, scalar first")
     rpy: Vec3 = _f("true roll, pitch, yaw (ZYX Euler of FRD in NED), rad")
     rates_frd: Vec3 = _f("true body rates, FRD, rad/s")
-    thrust_total: float = _f("sum of the four rotor thrusts, N")
+    thrust_total: float = _f("sum of the rotor thrusts, N")
     total_mass: float = _f("vehicle plus payload mass, kg")
     on_ground: bool = _f("the plant's ground contact is active")
     phase: PhaseName = _f("the bench's phase of the flight")
@@ -89,8 +90,9 @@ class Mag(_Sample):
 class Actuators(_Sample):
     """The board's HIL_ACTUATOR_CONTROLS as the plant applies them."""
 
-    motors: Annotated[list[float], Field(min_length=4, max_length=4)] = _f(
-        "normalised motor commands 0..1, PX4 quad-X order (front-right, rear-left, front-left, rear-right)")
+    motors: Annotated[list[float], Field(min_length=1, max_length=MAX_ROTORS)] = _f(
+        "normalised motor commands 0..1 of the plant's rotors, in PX4's motor order (a quad X: front-right, "
+        "rear-left, front-left, rear-right)")
     armed: bool = _f("the board reports itself armed")
 
 
@@ -101,7 +103,7 @@ class Environment(_Sample):
     force_ned: Vec3 = _f("scripted external force, NED, N (aerodynamic forces are in the plant, not here)")
     torque_frd: Vec3 = _f("scripted external torque, FRD, N·m")
     payload_kg: float = _f("attached payload, kg")
-    motor_health: Annotated[list[float], Field(min_length=4, max_length=4)] = _f(
+    motor_health: Annotated[list[float], Field(min_length=1, max_length=MAX_ROTORS)] = _f(
         "thrust factor per motor, 1 healthy, 0 dead")
 
 

@@ -41,11 +41,11 @@ def rest_problems(state: PlantState, gravity: float, source: Path) -> list[str]:
                              f"at rest it reads {_fmt(force)} m/s² in FRD, an accelerometer at rest reads "
                              f"{_fmt(expected)}: is the body frame FLU given as FRD (frames.body), or the sign "
                              "of the specific force reversed?"))
-    earth = quat_to_dcm(state.q_wxyz) @ force
+    earth, down = quat_to_dcm(state.q_wxyz) @ force, np.array((0.0, 0.0, gravity))
     if np.max(np.abs(earth - expected)) > REST_TOLERANCE_M_S2:
         lines.append(problem(source, "frames.earth",
                              f"at rest the attitude turns the specific force into {_fmt(earth)} m/s² NED, gravity "
-                             f"is {_fmt(-expected)} down: is an ENU earth frame given as NED, or the attitude's "
+                             f"is {_fmt(down)} down: is an ENU earth frame given as NED, or the attitude's "
                              "order or direction (order, rotates) wrong?"))
     return lines
 

@@ -85,12 +85,21 @@ class Frames(_Model):
     body: BodyFrame
 
 
+class HeadingParameter(_Model):
+    """The FMU parameter that sets the vehicle's heading at rest at the start, in the FMU's earth frame (NED: from
+    north towards east; ENU: from east towards north), so that it waits facing the mission's first heading."""
+
+    parameter: str
+    unit: str = "rad"
+
+
 class MappingFile(_Model):
     fmu: str
     frames: Frames
     step_s: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None  # None: any step the bench takes
     gravity_m_s2: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 9.80665
     parameters: dict[str, float | bool] = {}
+    initial_heading: HeadingParameter | None = None  # None: the vehicle starts at the FMU's own heading
     rotors: Rotors
     inputs: dict[str, PortMap] = {}
     outputs: dict[str, PortMap]
@@ -143,6 +152,16 @@ class Mapping:
         fmu = self.spec.fmu
         return None if fmu == BUILT_IN else (self.source.parent / fmu).resolve()
 
+    def heading_parameters(self, yaw_ned_rad: float) -> dict[str, float]:
+        """The parameter that starts the vehicle facing `yaw_ned_rad` (NED, from north), in the FMU's frame and unit;
+        none if the mapping names none."""
+        heading = self.spec.initial_heading
+        if heading is None:
+            return {}
+        yaw = yaw_ned_rad if self.spec.frames.earth == "NED" else math.remainder(math.pi / 2 - yaw_ned_rad, math.tau)
+        factor = si_factor(heading.unit, "angle")
+        return {heading.parameter: yaw if factor == 1.0 else yaw / factor}
+
     def rotor_geometry(self, parameters: dict[str, float] | None = None) -> RotorGeometry:
         """Positions in metres; an arm length named by parameter is read from `parameters`, then the
         mapping's own parameters (`resolve.ResolvedMapping.rotor_geometry` also knows the FMU's start value)."""
@@ -193,6 +212,8 @@ def load_mapping(path: Path | None = None) -> Mapping:
 
 def _content_problems(spec: MappingFile) -> list[tuple[str, str]]:
     found = [*_rotor_problems(spec.rotors)]
+    if spec.initial_heading is not None:
+        found += _unit_problem("initial_heading.unit", spec.initial_heading.unit, PORTS["attitude_euler"])
     for group, ports in (("inputs", spec.inputs), ("outputs", spec.outputs)):
         for name, port_map in ports.items():
             found += [(f"{group}.{name}.{field}", reason) for field, reason in _port_problems(PORTS[name], port_map)]

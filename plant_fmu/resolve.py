@@ -129,6 +129,9 @@ class _Resolver:
         spec = self.mapping.spec
         for name in spec.parameters:
             self._variable(f"parameters.{name}", name, PARAMETER_CAUSALITIES, SETTABLE_TYPES)
+        if spec.initial_heading is not None:
+            self._variable("initial_heading.parameter", spec.initial_heading.parameter, PARAMETER_CAUSALITIES,
+                           REAL_TYPES)
         if spec.rotors.arm_length_parameter is not None:
             self._variable("rotors.arm_length_parameter", spec.rotors.arm_length_parameter, PARAMETER_CAUSALITIES,
                            REAL_TYPES)

@@ -1,8 +1,10 @@
-"""Shared fixtures: the FMU built once per test session from the committed sources, and each shipped
-scenario flown once per session for every test that judges that flight."""
+"""Shared fixtures: the FMU built once per test session from the committed sources, PX4's builds unpacked once
+(HIL_PX4_DIR), the foreign plant (tests/data/foreign_plant) exported by pythonfmu once, and each shipped scenario
+flown once per session for every test that judges that flight."""
 
 from __future__ import annotations
 
+import shutil
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
@@ -11,11 +13,37 @@ import pytest
 
 from plant_fmu.build import ensure_fmu
 from tests.support.cli_runs import run
+from tests.support.px4_builds import px4_build, px4_root
+
+FOREIGN_PLANT = Path(__file__).parent / "data" / "foreign_plant"
 
 
 @pytest.fixture(scope="session")
 def fmu_path() -> Path:
     return ensure_fmu()
+
+
+@pytest.fixture(scope="session")
+def sitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A px4_sitl_default build from HIL_PX4_DIR (unpacked once per session)."""
+    return px4_build(px4_root(), "sitl", tmp_path_factory.mktemp("px4"))
+
+
+@pytest.fixture(scope="session")
+def hitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A px4_sitl_nolockstep build from HIL_PX4_DIR (unpacked once per session)."""
+    return px4_build(px4_root(), "hitl", tmp_path_factory.mktemp("px4"))
+
+
+@pytest.fixture(scope="session")
+def foreign_mapping(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The quadrotor of tests/data/foreign_plant/enu_quadrotor.py exported by pythonfmu, its mapping beside it."""
+    from pythonfmu.builder import FmuBuilder
+
+    out = tmp_path_factory.mktemp("foreign_plant")
+    FmuBuilder.build_FMU(FOREIGN_PLANT / "enu_quadrotor.py", dest=out)
+    shutil.copy(FOREIGN_PLANT / "enu_quadrotor.yaml", out)
+    return out / "enu_quadrotor.yaml"
 
 
 @pytest.fixture(scope="session")

@@ -3,11 +3,13 @@ numbers, and the plant and the emulator reading the same entry."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from firmware_interface.airframes import AIRFRAME_NAMES, AIRFRAMES
 from firmware_interface.emulator.config import build_config
 from hil.scenario.vehicles import PLANT_PRESETS
+from plant_fmu.mapping import default_mapping_path, load_mapping
 from plant_fmu.variables import PARAMETER_DEFAULTS
 
 
@@ -40,3 +42,19 @@ def test_the_flight_code_believes_the_vehicle_the_plant_flies(name):
 
 def test_every_airframe_is_offered_by_the_schema_and_the_emulator():
     assert set(AIRFRAMES) == set(PLANT_PRESETS) == set(AIRFRAME_NAMES)
+
+
+@pytest.mark.parametrize("name", AIRFRAME_NAMES)
+def test_the_flight_codes_rotors_are_those_of_our_plant_for_the_airframe(name):
+    """The emulator's default mixer (its belief, used when the bench does not send the plant's rotors) and our
+    FMU's mapping for the airframe's rotor count (the truth) place and spin the same rotors, in the same order."""
+    belief = build_config({"airframe": name}).vehicle
+    truth = load_mapping(default_mapping_path(AIRFRAMES[name].rotor_count)).rotor_geometry(
+        {"arm_length": PLANT_PRESETS[name]["arm_length"]})
+    assert np.array([r.position_frd_m for r in belief.rotors]) == pytest.approx(truth.positions_frd_m, abs=1e-15)
+    assert [r.spin == "ccw" for r in belief.rotors] == list(truth.ccw)
+
+
+def test_the_inspection_hexa_is_the_inspection_quads_body_on_six_rotors():
+    assert PLANT_PRESETS["inspection_hexa"] == PLANT_PRESETS["inspection_quad"]
+    assert (AIRFRAMES["inspection_hexa"].rotor_count, AIRFRAMES["inspection_quad"].rotor_count) == (6, 4)

@@ -29,7 +29,7 @@ from hil.loop.pilot import Decision
 from hil.loop.sink import FrameSink
 from hil.loop.stepper import LoopResult, Stepper
 from hil.pilots.bench import BenchPilot
-from hil.run.world import build_world, step_us, vehicle_parameters
+from hil.run.world import build_world, open_plant, step_us, vehicle_parameters
 from hil.scenario.loader import load_scenario
 from hil.scenario.mission import MissionPlan
 from hil.scenario.schema import Scenario
@@ -70,7 +70,7 @@ class ThreadBoard:
 def fly(scenario: Scenario, board: ThreadBoard, on_step, paced: bool = False) -> tuple[LoopResult, Stepper]:
     """The loop with the parts `hil run` gives it (the world, the bench pilot), on the board of this process."""
     plan = MissionPlan.build(scenario)
-    world = build_world(scenario, board.handle, vehicle_parameters(scenario, plan))
+    world = build_world(scenario, board.handle, open_plant(scenario, vehicle_parameters(scenario, plan)))
     stepper = Stepper(world, board.handle, BenchPilot(plan, scenario.end, step_us(scenario)), [FrameSink(on_step)],
                       step_us(scenario), paced, "none")
     try:
@@ -196,7 +196,7 @@ def test_a_pilot_that_ends_the_flight_is_not_asked_again(tmp_path, board_for, sp
     scenario = hover(tmp_path, 1.0)
     board_for.append(board := ThreadBoard(scenario))
     plan = MissionPlan.build(scenario)
-    world = build_world(scenario, board.handle, vehicle_parameters(scenario, plan))
+    world = build_world(scenario, board.handle, open_plant(scenario, vehicle_parameters(scenario, plan)))
     pilot, frames = ShortPilot(25), []
     stepper = Stepper(world, board.handle, pilot, [FrameSink(frames.append)], step_us(scenario), False, "none")
     if split:  # PX4 SITL's order: the next step decided while the board computes this one

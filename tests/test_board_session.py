@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import struct
+
 import pytest
+from pymavlink.dialects.v20.common import MAV_PARAM_TYPE_INT32, MAV_PARAM_TYPE_REAL32
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import ON_OWN_CLOCK, SIMULATED, BoardError, BoardSession
@@ -111,3 +114,21 @@ def test_watchdog_reports_a_silent_board():
             session.exchange(READINGS)
             session.poll(0.01)
     scripted.stop()
+
+
+def test_an_int_parameter_goes_as_int32_with_its_own_bytes_and_comes_back_as_its_value(board):
+    """MAVLink's bytewise parameter encoding, which PX4 uses (it refuses a PARAM_SET whose type is not the
+    parameter's, and copies the float field's four bytes into an INT32 one): the bytes of the float field are
+    those of the integer, little-endian, and PARAM_VALUE's are read back the same way."""
+    session = BoardSession(board.start(), SIMULATED)
+    session.wait_heartbeat(2.0)
+    session.set_param("CA_ROTOR_COUNT", 6)
+    session.set_param("EKF2_GPS_DELAY", 120.0)
+    for _ in range(40):
+        if {"CA_ROTOR_COUNT", "EKF2_GPS_DELAY"} <= set(session.report.params):
+            break
+        session.poll(0.05)
+    wire, kind = board.params["CA_ROTOR_COUNT"]
+    assert kind == MAV_PARAM_TYPE_INT32 and struct.pack("<f", wire) == (6).to_bytes(4, "little")
+    assert board.params["EKF2_GPS_DELAY"] == (120.0, MAV_PARAM_TYPE_REAL32)
+    assert session.report.params == {"CA_ROTOR_COUNT": 6.0, "EKF2_GPS_DELAY": 120.0}

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from firmware_interface.emulator.config import EstimatorSettings, NominalVehicle
+from firmware_interface.emulator.config import EstimatorSettings, NominalVehicle, Rotor
 from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
@@ -40,6 +40,45 @@ def test_saturation_drops_yaw_first_and_never_raises_collective():
     roll = -arm * (high[0] - high[1] - high[2] + high[3])
     assert roll == pytest.approx(0.2, rel=1e-6)  # roll kept whole; collective and yaw gave way
     assert high.max() <= 5.0 + 1e-9
+
+
+# PX4's hexa X (airframe 6001's CA_ROTOR0..5), by hand: azimuth from the nose towards the right, and spin
+HEXA = ((90, "cw"), (-90, "ccw"), (-30, "cw"), (150, "ccw"), (30, "ccw"), (-150, "cw"))
+HEXA_VEHICLE = NominalVehicle(rotors=tuple(
+    Rotor(position_frd_m=(0.25 * math.cos(math.radians(az)), 0.25 * math.sin(math.radians(az)), 0.0), spin=spin)
+    for az, spin in HEXA))
+
+
+def test_a_hexa_hovers_on_six_equal_commands():
+    u = Mixer(HEXA_VEHICLE).commands(9.80665, np.zeros(3))
+    # by hand: 1.6344 N per rotor = 5 (0.5 u + 0.5 u^2)  ->  u^2 + u - 0.65378 = 0  ->  u = 0.4507
+    assert u == pytest.approx([0.4507] * 6, abs=1e-4)
+
+
+@pytest.mark.parametrize(("torque", "more"),
+                         [((0.1, 0, 0), {1, 2, 5}), ((0, 0.1, 0), {2, 4}), ((0, 0, 0.01), {1, 3, 4})])
+def test_a_hexa_allocates_each_torque_exactly_to_the_right_rotors(torque, more):
+    """+roll: the left rotors (azimuths -90, -30, -150) push more; +pitch: the front ones (30, -30); +yaw: the
+    CCW ones. What the six thrusts give back, summed by hand from their places, is the demand exactly."""
+    thrusts = Mixer(HEXA_VEHICLE).rotor_thrusts(9.80665, np.array(torque))
+    assert set(np.flatnonzero(thrusts > 9.80665 / 6 + 1e-9)) == more
+    x = [0.25 * math.cos(math.radians(az)) for az, _ in HEXA]
+    y = [0.25 * math.sin(math.radians(az)) for az, _ in HEXA]
+    ccw = [1.0 if spin == "ccw" else -1.0 for _, spin in HEXA]
+    given = (sum(thrusts), sum(-yi * t for yi, t in zip(y, thrusts, strict=True)),
+             sum(xi * t for xi, t in zip(x, thrusts, strict=True)),
+             sum(0.016 * c * t for c, t in zip(ccw, thrusts, strict=True)))
+    assert given == pytest.approx((9.80665, *torque), abs=1e-12)
+
+
+def test_a_quad_x_given_by_azimuths_mixes_bit_for_bit_as_the_closed_form():
+    """Positions written as arm·cos(45°) differ from arm/√2 in the last bit; the mixer takes the closed form for
+    them, so that quad flights stay bit for bit what they were before it took a layout."""
+    a = 0.25 / math.sqrt(2)
+    closed = np.vstack((np.ones(4), -a * np.array((1.0, -1.0, -1.0, 1.0)), a * np.array((1.0, -1.0, 1.0, -1.0)),
+                        0.016 * np.array((1.0, 1.0, -1.0, -1.0))))
+    assert VEHICLE.rotors[0].position_frd_m[0] != a  # cos 45° at 0.25 m
+    assert np.array_equal(Mixer(VEHICLE)._inverse, np.linalg.inv(closed))
 
 
 def test_differentiator_recovers_first_and_second_derivatives_of_a_sine():

@@ -12,7 +12,7 @@ from hil.scenario.schema import Scenario
 
 def environment(**fields) -> Environment:
     scenario = Scenario.model_validate({"name": "t", "duration_s": 30, "reference": {"type": "hover"}, **fields})
-    return Environment(scenario, 0.004, np.random.default_rng(0))
+    return Environment(scenario, 0.004, np.random.default_rng(0), 4)
 
 
 def test_a_gust_adds_half_one_minus_cosine_of_its_peak_to_the_steady_wind():

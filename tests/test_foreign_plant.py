@@ -22,17 +22,6 @@ SOURCE = Path(__file__).parent / "data" / "foreign_plant"
 Z = np.zeros(3)
 
 
-@pytest.fixture(scope="session")
-def foreign_mapping(tmp_path_factory) -> Path:
-    """The FMU built by pythonfmu from the source above, with its mapping beside it."""
-    from pythonfmu.builder import FmuBuilder
-
-    out = tmp_path_factory.mktemp("foreign_plant")
-    FmuBuilder.build_FMU(SOURCE / "enu_quadrotor.py", dest=out)
-    shutil.copy(SOURCE / "enu_quadrotor.yaml", out)
-    return out / "enu_quadrotor.yaml"
-
-
 def fly(plant: Plant, schedule: list[tuple[float, tuple[float, ...]]],
         wind_ned: tuple[float, float, float] = (1.0, -0.5, 0.0)) -> list[PlantState]:
     """Rotor commands (PX4's order) held for each duration in a steady wind; the state every 0.1 s."""

@@ -67,7 +67,7 @@ def test_the_scenarios_apply_the_papers_d_s_and_d_m_in_ned_and_frd(name):
     """§4: d_s = [sin πt, cos πt, cos πt], d_M = [sin(πt/2) + 0.5, cos(πt/2) + 0.5, sin(πt/2) + 0.6] in the
     paper's axes; in the bench d_s as M·d_s (NED) and d_M as (−x, −y, +z) (body FRD)."""
     scenario = load_scenario(ROOT / "scenarios" / name)
-    environment = Environment(scenario, 0.001, np.random.default_rng(0))
+    environment = Environment(scenario, 0.001, np.random.default_rng(0), 4)
     for t in (0.0, 0.37, 1.5, 4.2, 13.9):
         sample = environment.sample(t)
         d_s = np.array((math.sin(math.pi * t), math.cos(math.pi * t), math.cos(math.pi * t)))

@@ -27,7 +27,7 @@ from hil.outputs.telemetry import subscribe
 from hil.outputs.zenoh_session import ZenohOptions
 from tests.support.mavsdk_client import read_telemetry
 from tests.support.ports import free_port
-from tests.support.px4_builds import px4_build, px4_root
+from tests.support.px4_builds import px4_root
 from tests.support.summary_text import summary_field
 
 PX4_ROOT = px4_root()
@@ -36,16 +36,6 @@ ROOT = Path(__file__).resolve().parent.parent
 BENCH_COMPONENT = 51  # firmware_interface.board.BENCH_COMPONENT_ID: PX4 acks our commands to it
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # PX4 vehicle_status.arming_state
 NAV_STATE_OFFBOARD = 14  # PX4 vehicle_status.nav_state
-
-
-@pytest.fixture(scope="session")
-def sitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return px4_build(PX4_ROOT, "sitl", tmp_path_factory.mktemp("px4"))
-
-
-@pytest.fixture(scope="session")
-def hitl(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return px4_build(PX4_ROOT, "hitl", tmp_path_factory.mktemp("px4"))
 
 
 def hil_run(*args: str, runs: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:

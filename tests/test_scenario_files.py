@@ -35,7 +35,7 @@ def test_every_shipped_scenario_passes_check():
     ("text", "line", "field", "says"),
     [
         ("name: x\nduration_s: ten\n", 2, "duration_s", "found 'ten', expected: input should be a valid number"),
-        ("name: x\nvehicle:\n  preset: inspection_quad\n  masss: 2\n", 4, "vehicle.masss", "unknown field"),
+        ("name: x\nvehicle:\n  preset: inspection_quad\n  masss: 2\n", 4, "vehicle.masss", "no parameter 'masss'"),
         ("name: x\nvehicle:\n  mass: -1.5\n", 3, "vehicle.mass",
          "found -1.5, expected: input should be greater than 0"),
         ("name: x\ndisturbance:\n  force_ned: ['sin(t)', 'open(1)', 0]\n", 3, "disturbance.force_ned",

@@ -23,6 +23,7 @@ from hil.scenario.loader import MAX_PROBLEMS, Problem, ScenarioError, load_scena
 from hil.scenario.schema import Disturbance, Scenario
 from hil.scenario.vehicles import PLANT_PRESETS, thrust_to_weight
 from hil.sensors import SensorsConfig
+from tests.test_plant_integration import AERO_OFF, SHORT_GUST
 
 ROOT = Path(__file__).resolve().parent.parent
 SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml"))
@@ -55,6 +56,8 @@ WRITTEN_BY_TESTS = [
     ("name: still\nduration_s: 4\nexpect: {settle_s: 1}\nreference: {type: hover, altitude_m: 2}\nend: disarm\n"
      "sensors: {imu: {profile: ideal}, mag: {profile: ideal}, baro: {profile: ideal}, "
      "gps: {profile: ideal}}\nboard: {state_source: truth}\n"),
+    SHORT_GUST, SHORT_GUST + AERO_OFF, SHORT_GUST + "vehicle: {preset: inspection_hexa}\n",  # test_plant_integration
+    "name: short_hover\nduration_s: 6\nseed: 1\nreference: {type: hover, altitude_m: 3}\n",  # and its PX4 flights
     # YAML features a scenario may use: anchors, aliases and merge keys, .inf as "until the end"
     ("name: anchors\nduration_s: 30\nwind:\n  gusts:\n    - &gust {start_s: 5, duration_s: 2, peak_ned: [0, 3, 0]}\n"
      "    - {<<: *gust, start_s: 15}\nfaults: {motors: [{motor: 1, start_s: 10, end_s: .inf, health: 0.8}]}\n"),
@@ -100,8 +103,9 @@ def test_output_is_bounded_to_twenty_lines_and_echoed_values_to_80_characters():
 
 
 def test_thrust_to_weight_of_the_presets():
-    assert thrust_to_weight({}) == pytest.approx(20 / 9.80665)  # the FMU's defaults: 1 kg, 4 x 5 N
-    assert thrust_to_weight(PLANT_PRESETS["paper_airframe"], payload_kg=4.0) == pytest.approx(160 / (5 * 9.80665))
+    assert thrust_to_weight({}, 4) == pytest.approx(20 / 9.80665)  # the FMU's defaults: 1 kg, 4 x 5 N
+    assert thrust_to_weight(PLANT_PRESETS["paper_airframe"], 4, payload_kg=4.0) == pytest.approx(160 / (5 * 9.80665))
+    assert thrust_to_weight(PLANT_PRESETS["inspection_hexa"], 6) == pytest.approx(30 / 9.80665)  # 6 x 5 N
 
 
 @pytest.mark.parametrize("text", WRITTEN_BY_TESTS, ids=[t.split("\n")[0] for t in WRITTEN_BY_TESTS])

@@ -7,13 +7,14 @@ airframes: `inspection_quad` (the default 1 kg quad) and `paper_airframe` (the p
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator
 
-from firmware_interface.airframes import AIRFRAMES, Airframe, AirframeName
+from firmware_interface.airframes import AIRFRAMES, Airframe, AirframeName, Spin
 from firmware_interface.emulator.control.registry import PLUGINS, ControllerName
 from firmware_interface.emulator.px4_params import PX4_PARAMS, unknown_names
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
@@ -24,6 +25,21 @@ class _Model(BaseModel):
 
 
 _QUAD = AIRFRAMES["inspection_quad"]
+MAX_ROTORS = 12  # PX4's control allocation takes up to 12 (CA_ROTOR0..11)
+
+
+class Rotor(_Model):
+    """Where one rotor sits (FRD, metres from the centre of gravity) and which way it turns, seen from above."""
+
+    position_frd_m: tuple[float, float, float]
+    spin: Spin
+
+
+def rotor_layout(airframe: Airframe) -> tuple[Rotor, ...]:
+    """The airframe's rotors at its arm length, in PX4's motor order."""
+    arm = airframe.arm_length_m
+    return tuple(Rotor(position_frd_m=(arm * math.cos(math.radians(az)), arm * math.sin(math.radians(az)), 0.0),
+                       spin=spin) for az, spin in airframe.rotors)
 
 
 class NominalVehicle(_Model):
@@ -38,6 +54,8 @@ class NominalVehicle(_Model):
     thrust_curve_k: float = Field(_QUAD.thrust_curve_k, ge=0, le=1)
     yaw_moment_coeff: float = Field(_QUAD.yaw_moment_coeff_m, gt=0)
     reversible: bool = Field(_QUAD.reversible, description="rotors take -1..1 (ideal actuators of the paper)")
+    rotors: Annotated[tuple[Rotor, ...], Field(min_length=1, max_length=MAX_ROTORS)] = Field(
+        rotor_layout(_QUAD), description="the mixer's rotors in PX4's motor order (the bench sends the plant's)")
     g: float = STANDARD_GRAVITY_M_S2
 
 
@@ -105,12 +123,13 @@ def nominal_vehicle(airframe: Airframe) -> dict[str, Any]:
     return {"mass": airframe.mass_kg, "Ixx": inertia[0], "Iyy": inertia[1], "Izz": inertia[2],
             "arm_length": airframe.arm_length_m, "thrust_max": airframe.thrust_max_n,
             "thrust_curve_k": airframe.thrust_curve_k, "yaw_moment_coeff": airframe.yaw_moment_coeff_m,
-            "reversible": airframe.reversible}
+            "reversible": airframe.reversible, "rotors": [r.model_dump() for r in rotor_layout(airframe)]}
 
 
 PRESETS: dict[str, dict[str, Any]] = {
     "inspection_quad": {"vehicle": nominal_vehicle(AIRFRAMES["inspection_quad"]), "gains": _INSPECTION_GAINS},
     "paper_airframe": {"vehicle": nominal_vehicle(AIRFRAMES["paper_airframe"]), "gains": {}},
+    "inspection_hexa": {"vehicle": nominal_vehicle(AIRFRAMES["inspection_hexa"]), "gains": _INSPECTION_GAINS},
 }
 
 

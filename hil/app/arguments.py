@@ -23,6 +23,29 @@ def load_scenarios(paths: list[str]) -> tuple[list[tuple[str, Any]], int]:
     return scenarios, bad
 
 
+def plant_refusal(path: str, exc: Exception) -> list[str]:
+    """A plant the run cannot use (MappingError: one line per problem, naming the mapping file and its field;
+    PlantError: the FMU's refusal), as lines naming the scenario file."""
+    from plant_fmu.mapping import MappingError
+
+    return [f"{path}: plant: {line}" for line in (exc.lines if isinstance(exc, MappingError) else [str(exc)])]
+
+
+def plant_at_rest_problems(path: str, scenario: Any) -> list[str]:
+    """The scenario's plant opened with its parameters and checked at rest (the start-up check of `hil run`):
+    the lines of `plant_refusal`, none when it passes."""
+    from hil.run.world import open_plant, vehicle_parameters
+    from hil.scenario.mission import MissionPlan
+    from plant_fmu import PlantError
+    from plant_fmu.mapping import MappingError
+
+    try:
+        with open_plant(scenario, vehicle_parameters(scenario, MissionPlan.build(scenario))):
+            return []
+    except (MappingError, PlantError) as exc:
+        return plant_refusal(path, exc)
+
+
 def zenoh_options(args: argparse.Namespace):
     from hil.outputs.zenoh_session import ZenohOptions
 

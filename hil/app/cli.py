@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from hil.app.arguments import load_scenarios
+from hil.app.arguments import load_scenarios, plant_at_rest_problems
 from hil.app.live_commands import add_live_commands
 from hil.app.run_command import add_run_command
 from hil.app.study_commands import add_study_commands
@@ -61,9 +61,14 @@ def _flown(scenario: Any) -> str:
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
+    """Each file against the schema and its plant's files, then its plant opened and checked at rest."""
     scenarios, bad = load_scenarios(args.files)
     for path, scenario in scenarios:
-        print(f"{path}: ok ({scenario.name}: {_flown(scenario)}, {scenario.duration_s:g} s)")
+        if problems := plant_at_rest_problems(path, scenario):
+            print("\n".join(problems), file=sys.stderr)
+            bad += 1
+        else:
+            print(f"{path}: ok ({scenario.name}: {_flown(scenario)}, {scenario.duration_s:g} s)")
     return EXIT_BAD_INPUT if bad else EXIT_OK
 
 

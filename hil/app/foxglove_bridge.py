@@ -14,7 +14,7 @@ from hil.channels import CHANNEL_MODELS
 from hil.outputs.foxglove_live import FoxgloveServer
 from hil.outputs.foxglove_messages import mission_scene
 from hil.outputs.telemetry import KEY_PREFIX, fetch_meta
-from hil.scenario.schema import Scenario
+from hil.scenario.schema import READ_PLANT, Scenario
 
 
 def bridge_zenoh(session: zenoh.Session, run_id: str | None, address: str, wait_s: float,
@@ -27,7 +27,7 @@ def bridge_zenoh(session: zenoh.Session, run_id: str | None, address: str, wait_
     meta = fetch_meta(session, chosen)
     if meta is None:
         return f"run {chosen}: its meta did not answer (has it ended?)"
-    scenario = Scenario.model_validate(meta["scenario"])
+    scenario = Scenario.model_validate(meta["scenario"], context={READ_PLANT: False})  # its plant is the bench's
     home = scenario.home
     start_ns = int(meta.get("start_unix_ns") or time.time_ns())
     server = FoxgloveServer(address, home.frame, start_ns,

@@ -9,14 +9,14 @@ from pathlib import Path
 from typing import Any
 
 from firmware_interface.emulator.control.registry import CONTROLLERS
-from hil.app.arguments import add_zenoh_arguments, load_scenarios, zenoh_options
+from hil.app.arguments import add_zenoh_arguments, load_scenarios, plant_refusal, zenoh_options
 from hil.exit_codes import EXIT_BAD_INPUT, EXIT_DISK_FULL, EXIT_INTERRUPTED
 
 MAX_SPEED_FACTOR = 100.0
 
 
 def _with_run_options(scenario, args: argparse.Namespace):
-    """The scenario with --seed, --controller and --telemetry-rate applied and validated as the file is
+    """The scenario with --seed, --controller, --plant and --telemetry-rate applied and validated as the file is
     (a seed of -1 or a rate of 0 is bad input), or None after one line per problem."""
     from pydantic import ValidationError
 
@@ -25,6 +25,8 @@ def _with_run_options(scenario, args: argparse.Namespace):
         data["seed"] = args.seed
     if args.controller:
         data["board"]["controller"] = args.controller
+    if args.plant:
+        data["plant"] = str(Path(args.plant).resolve())  # a path as typed, from the working directory
     for item in args.telemetry_rate or []:
         channel, _, hz = item.partition("=")
         try:
@@ -55,8 +57,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     options = None if scenario is None else _run_options(args, scenario)
     if scenario is None or options is None:
         return EXIT_BAD_INPUT
-    with progress_printer(scenario.name) as progress:
-        outcome = run_scenario(scenario, options, progress=progress)
+    from plant_fmu import PlantError
+    from plant_fmu.mapping import MappingError
+
+    try:
+        with progress_printer(scenario.name) as progress:
+            outcome = run_scenario(scenario, options, progress=progress)
+    except (MappingError, PlantError) as exc:  # the plant failed its start-up check: nothing was started
+        print("\n".join(plant_refusal(args.scenario, exc)), file=sys.stderr)
+        return EXIT_BAD_INPUT
     if outcome.exit_code == EXIT_INTERRUPTED:  # the run is closed: more Ctrl-C only end it as it ends
         for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             signal.signal(sig, signal.SIG_IGN)
@@ -184,6 +193,8 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
+    run.add_argument("--plant", metavar="MAPPING", help="fly this plant instead of the scenario's: a plant mapping "
+                                                        "file (docs/plant.md)")
     run.add_argument("--runs", default="runs", help="where run directories go (default runs/)")
     run.add_argument("--gcs", action="append", metavar="ENDPOINT",
                      help="relay the board's MAVLink to this ground station and back (repeatable; default "

@@ -14,6 +14,7 @@ from firmware_interface.link import Link, open_pty_pair
 from hil.boards.gcs_relay import DEFAULT_GCS
 from hil.boards.handle import BoardHandle
 from hil.boards.target import BoardPolicy, GroundTruthUse, LinkSettings
+from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
 
@@ -42,9 +43,10 @@ class EmulatorProcess:
                 self.popen.wait()
 
 
-def emulator_config(scenario: Scenario) -> dict:
-    """What the emulator is told: the scenario's board settings, and EKF2_GPS_DELAY set to the receiver's
-    delay, as a user would set the parameter for the GPS on the vehicle."""
+def emulator_config(scenario: Scenario, rotors: RotorGeometry | None = None) -> dict:
+    """What the emulator is told: the scenario's board settings, EKF2_GPS_DELAY set to the receiver's delay, as a
+    user would set the parameter for the GPS on the vehicle, and the plant's rotors for its mixer, as a user sets
+    PX4's control allocation for the frame (unless the scenario's board.config gives the mixer rotors of its own)."""
     board = scenario.board
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     config = {"airframe": board.airframe or scenario.vehicle.preset, "controller": board.controller,
@@ -52,6 +54,11 @@ def emulator_config(scenario: Scenario) -> dict:
     estimator = dict(config.get("estimator", {}))
     estimator.setdefault("gps_delay_s", gps.delay_s)
     config["estimator"] = estimator
+    if rotors is not None:
+        vehicle = dict(config.get("vehicle", {}))
+        placed = zip(rotors.positions_frd_m.tolist(), rotors.ccw, strict=True)
+        vehicle.setdefault("rotors", [{"position_frd_m": xyz, "spin": "ccw" if ccw else "cw"} for xyz, ccw in placed])
+        config["vehicle"] = vehicle
     return config
 
 
@@ -67,14 +74,15 @@ class EmulatorTarget:
 
     def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
         config_path = run_dir / "emulator.yaml"
-        config_path.write_text(yaml.safe_dump(emulator_config(scenario), sort_keys=False))
+        config_path.write_text(yaml.safe_dump(emulator_config(scenario, settings.rotors), sort_keys=False))
         pair = open_pty_pair()
         log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
         popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
                                   "--config", str(config_path)], stdout=log, stderr=log,
                                  start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
         session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors)
+                               reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"emulator on {pair.slave_path}",
                              EmulatorProcess(popen, run_dir / "emulator.log"))
 

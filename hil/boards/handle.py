@@ -29,7 +29,7 @@ class BoardHandle:
     command_session: BoardSession  # heartbeat, commands, setpoints: the HIL session unless the board has its own
     description: str
     process: BoardProcess | None = None
-    params: dict[str, float] = field(default_factory=dict)  # set on the board before arming
+    params: dict[str, float | int] = field(default_factory=dict)  # set on the board before arming (an int: INT32)
     gcs: GcsBridge | None = None  # relays the board's traffic to ground stations and back
 
     @property

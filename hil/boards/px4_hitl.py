@@ -13,7 +13,7 @@ from hil.boards.gcs_relay import DEFAULT_GCS
 from hil.boards.handle import BoardHandle
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
 from hil.boards.px4.hitl_startup import write_hitl_startup
-from hil.boards.px4.parameters import px4_parameters
+from hil.boards.px4.parameters import px4_parameters, rotor_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.px4_sitl import PX4_START_TIMEOUT_S
 from hil.boards.target import BoardPolicy, LinkSettings
@@ -39,7 +39,9 @@ class Px4HitlTarget:
         pair = open_pty_pair()
         claim, _ = claim_instance(lambda n: n)
         try:
-            script = write_hitl_startup(run_dir.resolve() / "px4-hitl.rcS", pair.slave_path)  # PX4 runs elsewhere
+            rotors = rotor_parameters(settings.rotors) if settings.rotors is not None else {}
+            script = write_hitl_startup(run_dir.resolve() / "px4-hitl.rcS", pair.slave_path,  # PX4 runs elsewhere
+                                        rotors)
             px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
                              extra_args=("-s", str(script)), preexec=partial(child_setup, claim.number))
         except BaseException:
@@ -48,10 +50,11 @@ class Px4HitlTarget:
             pair.release_slave()
             raise
         session = BoardSession(Link(pair.master, tap=settings.tap), ON_OWN_CLOCK, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors)
+                               reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session,
                              f"PX4 HITL rehearsal, instance {claim.number} ({self.build.root}) on {pair.slave_path}",
-                             px4, px4_parameters(scenario))
+                             px4, px4_parameters(scenario, settings.rotors))
         try:
             session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"is {self.build.root} a px4_sitl_nolockstep build? "
                                    f"see {px4.log_path}", still_starting=px4.check_starting)

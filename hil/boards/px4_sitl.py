@@ -21,7 +21,7 @@ from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link
 from hil.boards.handle import BoardHandle
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
-from hil.boards.px4.parameters import px4_parameters
+from hil.boards.px4.parameters import px4_parameters, write_sitl_rotor_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.target import BoardPolicy, LinkSettings
 from hil.scenario.schema import Scenario
@@ -65,17 +65,18 @@ class Px4SitlTarget:
         n = claim.number
         try:
             px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log",
-                             _environment(run_dir, settings.speed_factor), preexec=partial(child_setup, n))
+                             _environment(run_dir, settings), preexec=partial(child_setup, n))
         except BaseException:
             listener.close()
             claim.release()
             raise
         session = BoardSession(Link(listener, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors)
+                               reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"PX4 SITL instance {n} ({self.build.root}), simulator "
                              f"tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, the bench's commands udpout:127.0.0.1:"
                              f"{BENCH_LINK_PORT + n}; QGroundControl: udp {SITL_GCS_PORT}, MAVSDK/MAVROS: udp "
-                             f"{SITL_API_PORT + n}", process=px4, params=px4_parameters(scenario))
+                             f"{SITL_API_PORT + n}", process=px4, params=px4_parameters(scenario, settings.rotors))
         try:
             commands = open_link(f"udpout:127.0.0.1:{BENCH_LINK_PORT + n}", tap=settings.tap)
             handle.command_session = BoardSession(commands, SIMULATED, watchdog_s=settings.watchdog_s)
@@ -87,13 +88,15 @@ class Px4SitlTarget:
         return handle
 
 
-def _environment(run_dir: Path, speed_factor: float) -> dict[str, str]:
-    """PX4's environment for the run: the airframe, no GUI, the bench's px4-rc.mavlink first in PATH, and
-    PX4_SIM_SPEED_FACTOR when the run is paced faster than the wall clock (PX4 then lengthens its link-loss
-    timeouts, which an outside pilot's wall-clock messages would otherwise break)."""
+def _environment(run_dir: Path, settings: LinkSettings) -> dict[str, str]:
+    """PX4's environment for the run: the airframe, no GUI, the bench's px4-rc.mavlink and px4-rc.params (the
+    plant's rotors) first in PATH, and PX4_SIM_SPEED_FACTOR when the run is paced faster than the wall clock (PX4
+    then lengthens its link-loss timeouts, which an outside pilot's wall-clock messages would otherwise break)."""
+    speed_factor = settings.speed_factor
     scripts = (run_dir / "px4-scripts").resolve()
     scripts.mkdir(exist_ok=True)
     (scripts / "px4-rc.mavlink").write_text(RC_MAVLINK.format(port=BENCH_LINK_PORT, remote=BENCH_LINK_REMOTE_PORT))
+    write_sitl_rotor_parameters(scripts, settings.rotors)
     env = {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1",
            "PATH": f"{scripts}{os.pathsep}{os.environ.get('PATH', '')}"}
     if speed_factor != 1.0:

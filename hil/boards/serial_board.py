@@ -33,7 +33,8 @@ class SerialBoardTarget:
 
     def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
         session = BoardSession(open_link(self.port, tap=settings.tap, baud=self.baud), ON_OWN_CLOCK,
-                               watchdog_s=settings.watchdog_s, reversible_motors=settings.reversible_motors)
+                               watchdog_s=settings.watchdog_s, reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"hitl on {self.port}")
         try:
             session.wait_heartbeat(self.connect_timeout_s or SERIAL_WAIT_S)

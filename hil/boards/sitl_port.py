@@ -36,7 +36,8 @@ class SitlPortTarget:
 
     def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
         session = BoardSession(open_link(self.port, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors)
+                               reversible_motors=settings.reversible_motors,
+                               motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"sitl on {self.port}" + (f", commands on {self.mavlink}"
                                                                          if self.mavlink else ""))
         try:

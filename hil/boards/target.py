@@ -9,7 +9,10 @@ from typing import Literal, Protocol
 
 from firmware_interface.link import FrameTap
 from hil.boards.handle import BoardHandle
+from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
+
+QUAD_MOTORS = 4  # motors read from a board whose rotors the run does not set (its airframe's, a quad)
 
 # What the true state is sent for: nothing (a real board, PX4's HITL path), PX4 SITL's log (HIL_STATE_QUATERNION,
 # its *_groundtruth topics), or the emulator's flight code (ODOMETRY at float precision, `state_source: truth`)
@@ -29,12 +32,18 @@ class BoardPolicy:
 
 @dataclass(frozen=True)
 class LinkSettings:
-    """How the run wants its links to the board."""
+    """How the run wants its links to the board, and the plant's rotors the board must mix for."""
 
     watchdog_s: float = 1.0
     tap: FrameTap | None = None  # sees every frame (the tlog)
     reversible_motors: bool = False  # the plant's rotors take -1..1 (the paper's ideal actuators)
     speed_factor: float = 1.0  # a lockstep run paced at this many times the wall clock (PX4_SIM_SPEED_FACTOR)
+    rotors: RotorGeometry | None = None  # the plant's rotors, PX4's motor order (None: the board's airframe's)
+
+    @property
+    def motor_count(self) -> int:
+        """How many of HIL_ACTUATOR_CONTROLS' outputs drive the plant's rotors."""
+        return self.rotors.count if self.rotors is not None else QUAD_MOTORS
 
 
 class BoardTarget(Protocol):

@@ -37,7 +37,7 @@ class PilotView:
     board: BoardReport  # heartbeat, ACKs, the latest of each message, texts, parameters read back
     command_link: str  # the board's command link, for messages
     emit: Callable[[str], None]  # a run event, stamped with the bench's time
-    params_owed: dict[str, float] = field(default_factory=dict)  # what the board must be told before arming
+    params_owed: dict[str, float | int] = field(default_factory=dict)  # told before arming (an int: INT32)
     now_s: float = 0.0  # the bench's time
     truth: PlantState | None = None  # the plant after the latest step
     outputs_armed: bool = False  # the board's actuator outputs say armed (HIL_ACTUATOR_CONTROLS)

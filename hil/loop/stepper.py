@@ -75,7 +75,7 @@ class Stepper:
         self.phase = ""  # the latest decision's phase and mission clock (for the progress line and messages)
         self.mission_t = -math.inf
         self.truth = world.plant.state()  # the true state after the latest step
-        self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        self.motors: tuple[float, ...] = (0.0,) * world.plant.rotor_count
         self.armed = False
         self.finished = False  # the pilot said the flight is over
         self.failsafe_texts: list[tuple[float, str]] = []  # the board's texts that say failsafe, with the time

@@ -108,13 +108,16 @@ def attitude(view: View) -> Figure:
     return fig
 
 
+QUAD_X_NAMES = (" (front-right)", " (rear-left)", " (front-left)", " (rear-right)")  # PX4's quad X
+
+
 def motors(view: View) -> Figure:
     fig, axes = new_figure(view, 2, 5.5)
-    t_act, commands = view.flight.time("actuators"), view.flight.column("actuators", "motors").reshape(-1, 4)
-    t_env, health = view.flight.time("environment"), view.flight.column("environment", "motor_health").reshape(-1, 4)
-    names = ("front-right", "rear-left", "front-left", "rear-right")
-    for i in range(4):
-        plot_line(axes[0, 0], t_act, commands[:, i], color=f"C{i}", label=f"motor {i + 1} ({names[i]})")
+    t_act, commands = view.flight.time("actuators"), view.flight.column("actuators", "motors")
+    t_env, health = view.flight.time("environment"), view.flight.column("environment", "motor_health")
+    where = QUAD_X_NAMES if commands.shape[1] == len(QUAD_X_NAMES) else ("",) * commands.shape[1]
+    for i in range(commands.shape[1]):  # PX4's motor order, as the plant's mapping lists its rotors
+        plot_line(axes[0, 0], t_act, commands[:, i], color=f"C{i}", label=f"motor {i + 1}{where[i]}")
         if np.nanmin(health[:, i], initial=1.0) < 1.0:
             plot_line(axes[0, 0], t_env, health[:, i], color=f"C{i}", linestyle="--", label=f"motor {i + 1} health")
     axes[0, 0].set_ylabel("command (0..1)")

@@ -1,7 +1,9 @@
 """`hil run`: one scenario from file to run directory, exit code and summary.
 
-The run opens its outputs (before any board starts, so that a bad address is bad input), attaches the board, builds
-the world and the pilot, flies the loop, judges the result, and closes everything it opened whatever ended it.
+The run opens its plant and checks it at rest (a plant that fails is bad input: MappingError or PlantError, raised
+before anything else starts), opens its outputs (before any board starts, so that a bad address is bad input),
+attaches the board, builds the world and the pilot, flies the loop, judges the result, and closes everything it
+opened whatever ended it.
 """
 
 from __future__ import annotations
@@ -42,9 +44,10 @@ from hil.outputs.registry import OUTPUTS
 from hil.outputs.zenoh_session import ZenohOptions
 from hil.pilots.registry import make_pilot
 from hil.run.summary import format_summary
-from hil.run.world import build_world, reversible_rotors, step_us, vehicle_parameters
+from hil.run.world import build_world, open_plant, reversible_rotors, step_us, vehicle_parameters
 from hil.scenario.mission import MissionPlan
 from hil.scenario.schema import Scenario
+from plant_fmu import Plant
 
 
 @dataclass
@@ -91,16 +94,29 @@ class _RunReport:
 
 def run_scenario(scenario: Scenario, options: RunOptions, sinks: list[Sink] | None = None,
                  progress: Progress | None = None) -> RunOutcome:
-    """Fly `scenario` as `options` say; `sinks` take every frame and event besides the run's own outputs."""
-    with stopped_by_signals():
-        return _run(scenario, options, sinks or [], progress)
+    """Fly `scenario` as `options` say; `sinks` take every frame and event besides the run's own outputs. A plant
+    that cannot be opened or fails its check at rest raises MappingError or PlantError, with nothing started."""
+    plan = MissionPlan.build(scenario)
+    parameters = vehicle_parameters(scenario, plan)
+    with stopped_by_signals(), open_plant(scenario, parameters) as plant:
+        return _run(_Flight(scenario, plan, parameters, plant), options, sinks or [], progress)
+
+
+@dataclass(frozen=True)
+class _Flight:
+    """What flies: the scenario, its flight plan, and the plant opened with its parameters."""
+
+    scenario: Scenario
+    plan: MissionPlan
+    parameters: dict[str, float]
+    plant: Plant
 
 
 @dataclass
 class _Run:
     """One run's fixed parts: what flies, how it is paced, where it writes."""
 
-    scenario: Scenario
+    flight: _Flight
     options: RunOptions
     policy: BoardPolicy
     paced: bool
@@ -108,9 +124,14 @@ class _Run:
     disk: DiskWatch  # the run directory's space: a reserve for the last files, the first write that failed
     report: _RunReport
 
+    @property
+    def scenario(self) -> Scenario:
+        return self.flight.scenario
+
     @classmethod
-    def prepare(cls, scenario: Scenario, options: RunOptions) -> _Run:
+    def prepare(cls, flight: _Flight, options: RunOptions) -> _Run:
         """The run's directory and its disk watch (OSError when there is no room even for them)."""
+        scenario = flight.scenario
         policy = options.board.policy(scenario)
         paced = (options.realtime or policy.wall_clock or bool(scenario.faults.link) or options.speed_factor != 1.0
                  or scenario.pilot.type == "external")  # someone on the other side lives in wall-clock time
@@ -120,7 +141,7 @@ class _Run:
         except OSError:
             shutil.rmtree(run_dir, ignore_errors=True)
             raise
-        return cls(scenario, options, policy, paced, run_dir, disk, _RunReport(policy.autopilot))
+        return cls(flight, options, policy, paced, run_dir, disk, _RunReport(policy.autopilot))
 
     @property
     def meta(self) -> dict[str, Any]:
@@ -138,10 +159,9 @@ class _Run:
 
     def attach_and_fly(self, sinks: list[Sink], progress: Progress | None, stack: ExitStack, tlog: FrameTap) -> None:
         """Attach, fly, judge; fills `report`. What it opens is closed by `stack`."""
-        scenario, report = self.scenario, self.report
-        plan = MissionPlan.build(scenario)
-        parameters = vehicle_parameters(scenario, plan)
-        settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(parameters), self.options.speed_factor)
+        scenario, report, flight = self.scenario, self.report, self.flight
+        settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(flight.parameters),
+                                self.options.speed_factor, flight.plant.rotor_geometry(flight.parameters))
         try:
             report.handle = handle = self.options.board.attach(scenario, self.run_dir, settings)
         except (BoardError, LinkError) as exc:
@@ -149,12 +169,11 @@ class _Run:
             return
         stack.callback(handle.close)  # before the outputs close: the board is stopped first
         report.board_text = handle.description + _relay(handle, self.policy, self.options.gcs, scenario.pilot.type)
-        world = build_world(scenario, handle, parameters)
-        stack.callback(world.plant.close)
+        world = build_world(scenario, handle, flight.plant)
         metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
         expect = scenario.expect.for_board(self.policy.px4) if scenario.expect else None
         behaviour = behaviour_judge(scenario, expect)
-        pilot = make_pilot(scenario, plan, step_us(scenario))
+        pilot = make_pilot(scenario, flight.plan, step_us(scenario))
         stepper = Stepper(world, handle, pilot, [metrics, behaviour, *sinks], step_us(scenario), self.paced,
                           self.policy.ground_truth, progress, self.options.speed_factor)
         result = stepper.run()
@@ -183,9 +202,10 @@ def _no_room(runs_root: Path) -> RunOutcome:
                       f"result: ABORTED (exit {EXIT_DISK_FULL:d})\nended: {reason}\n", kept=False)
 
 
-def _run(scenario: Scenario, options: RunOptions, extra_sinks: list[Sink], progress: Progress | None) -> RunOutcome:
+def _run(flight: _Flight, options: RunOptions, extra_sinks: list[Sink], progress: Progress | None) -> RunOutcome:
+    scenario = flight.scenario
     try:
-        run = _Run.prepare(scenario, options)
+        run = _Run.prepare(flight, options)
     except OSError as exc:
         if not is_no_space(exc):
             raise

@@ -22,15 +22,16 @@ class EnvironmentSample:
     force_ned: np.ndarray
     torque_frd: np.ndarray
     payload_kg: float
-    motor_health: tuple[float, float, float, float]
+    motor_health: tuple[float, ...]  # per rotor, PX4's motor order
 
 
 class Environment:
     """Evaluates the scenario's environment. Before the mission (t < 0: preflight, take-off) only the
     steady wind and the turbulence act; gusts, disturbances, payload steps and faults are mission events."""
 
-    def __init__(self, scenario: Scenario, dt: float, rng: np.random.Generator) -> None:
+    def __init__(self, scenario: Scenario, dt: float, rng: np.random.Generator, rotor_count: int) -> None:
         self.scenario = scenario
+        self.healthy = (1.0,) * rotor_count
         self.steady = np.array(scenario.wind.steady_ned, float)
         self.gusts = [(g.start_s, g.duration_s, np.array(g.peak_ned, float)) for g in scenario.wind.gusts]
         turbulence = scenario.wind.turbulence
@@ -49,16 +50,16 @@ class Environment:
         if self.turbulence is not None:
             wind += self.turbulence.sample()
         if t < 0:
-            return EnvironmentSample(wind, np.zeros(3), np.zeros(3), 0.0, (1.0, 1.0, 1.0, 1.0))
+            return EnvironmentSample(wind, np.zeros(3), np.zeros(3), 0.0, self.healthy)
         for start, duration, peak in self.gusts:
             wind += one_minus_cosine(t, start, duration) * peak
         payload = 0.0
         for at, mass in self.payload:
             if t >= at:
                 payload = mass
-        health = [1.0, 1.0, 1.0, 1.0]
+        health = list(self.healthy)
         for fault in self.motor_faults:
             if fault.start_s <= t < fault.end_s:
                 health[fault.motor - 1] = min(health[fault.motor - 1], fault.health)
         return EnvironmentSample(wind, np.array([f(t) for f in self.force]), np.array([f(t) for f in self.torque]),
-                                 payload, tuple(health))  # type: ignore[arg-type]
+                                 payload, tuple(health))

@@ -18,6 +18,7 @@ MAX_DURATION_S = 86_400.0  # 24 h of simulated time: longer would never finish i
 MAX_MASS_KG = 1_000.0
 MAX_SPEED_M_S = 100.0  # reference speeds and wind components
 
+SCENARIO_DIR = "scenario_dir"  # the validation context's key: the scenario file's folder, where relative paths start
 Duration = Annotated[float, Field(gt=0, le=MAX_DURATION_S)]
 MissionTime = Annotated[float, Field(ge=0, le=MAX_DURATION_S)]
 UntilEnd = Annotated[float, Field(gt=0, allow_inf_nan=True, description="s, or .inf (null in JSON): until the end"),

@@ -19,7 +19,7 @@ from pydantic import ValidationError
 from pydantic_core import ErrorDetails
 
 from hil.scenario.expressions import echo
-from hil.scenario.pilot_spec import SCENARIO_DIR
+from hil.scenario.fields import SCENARIO_DIR
 from hil.scenario.schema import CHECK_ERROR, Scenario
 
 MAX_BYTES = 1_000_000  # a scenario or a sweep is a few kB

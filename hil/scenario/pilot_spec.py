@@ -16,10 +16,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, ValidationInfo, model_validator
 
-from hil.scenario.fields import ScenarioModel
+from hil.scenario.fields import SCENARIO_DIR, ScenarioModel
 from hil.scenario.mission_items import MAX_ITEMS, PlanItem, read_plan_file, validate_items
-
-SCENARIO_DIR = "scenario_dir"  # the validation context's key: where a relative plan path starts
 
 
 class BenchPilotSpec(ScenarioModel):

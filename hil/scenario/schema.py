@@ -5,17 +5,20 @@ emulator models a scenario reaches), except a fault's `end_s`, where `.inf` mean
 keep a run possible and finite are on the fields' types (`hil.scenario.fields`); the `reference:` types are in
 `hil.scenario.reference`. What depends on several fields is checked once the whole file has parsed
 (`Scenario._consistent`): every time on the mission clock inside the mission, intervals that end after they
-start, expressions over the mission, thrust-to-weight, what the reference can fly within the mission.
+start, expressions over the mission, what the reference can fly within the mission, and the scenario against
+its plant (`hil.scenario.plant`: the mapping file and the FMU's model description are read, cached).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 
 from pydantic import (
     BaseModel,
+    ConfigDict,
     Discriminator,
     Field,
     Tag,
@@ -28,13 +31,14 @@ from pydantic import (
 from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from firmware_interface.airframes import AirframeName
-from firmware_interface.emulator.config import build_config
+from firmware_interface.emulator.config import MAX_ROTORS, build_config
 from firmware_interface.emulator.control.registry import ControllerName
 from firmware_interface.px4_modes import PX4_MODE_NAMES
 from hil.channels import CHANNEL_MODELS
 from hil.scenario.expressions import ExpressionError, compile_expression
 from hil.scenario.fields import (
     MAX_MASS_KG,
+    SCENARIO_DIR,
     Duration,
     Length,
     Mass,
@@ -47,8 +51,8 @@ from hil.scenario.fields import (
 )
 from hil.scenario.pilot_checks import pilot_problems, resolve_end
 from hil.scenario.pilot_spec import BenchPilotSpec, End, PilotSpec
+from hil.scenario.plant import plant_problems
 from hil.scenario.reference import HoverRef, Reference
-from hil.scenario.vehicles import plant_parameters, thrust_to_weight
 from hil.sensors.faults import SensorFault
 from hil.sensors.geodesy import Home
 from hil.sensors.suite import SensorsConfig
@@ -58,6 +62,7 @@ MAX_RATE_HZ = 10_000.0  # telemetry rates
 MIN_INTEGRATION_STEP_S = 1e-6
 CHECK_ERROR = "scenario_check"  # the error type of the checks across fields (their messages say it all)
 MISSION_TIMES = ("start_s", "t_s", "settle_s")  # fields, in any part of a scenario, timed on the mission clock
+READ_PLANT = "read_plant"  # validation context: False to take the plant field as written (a recorded run)
 
 
 def _number_unless(when: tuple[type, ...]) -> Discriminator:
@@ -102,16 +107,18 @@ else:
 
 
 class Vehicle(_VehicleParameters):
-    """A plant preset plus overrides of any FMU parameter (mass, Ixx, thrust_max, ...)."""
+    """An airframe preset plus overrides of the plant FMU's parameters: our FMU's (mass, Ixx, thrust_max, ...,
+    bounded here), or any other name a foreign FMU has (a finite number; `Scenario` checks it against the FMU)."""
+
+    model_config = ConfigDict(extra="allow")
+    __pydantic_extra__: dict[str, float] = Field(init=False)
 
     preset: AirframeName = "inspection_quad"
 
     @property
     def overrides(self) -> dict[str, float]:
-        return {name: value for name in PARAMETER_NAMES if (value := getattr(self, name)) is not None}
-
-    def thrust_to_weight(self, payload_kg: float) -> float:
-        return thrust_to_weight(plant_parameters(self.preset, self.overrides), payload_kg)
+        ours = {name: value for name in PARAMETER_NAMES if (value := getattr(self, name)) is not None}
+        return {**ours, **(self.model_extra or {})}
 
 
 class Gust(ScenarioModel):
@@ -157,7 +164,7 @@ class PayloadStep(ScenarioModel):
 
 
 class MotorFault(ScenarioModel):
-    motor: int = Field(ge=1, le=4)
+    motor: int = Field(ge=1, le=MAX_ROTORS, description="PX4's motor number, 1 to the plant's rotor count")
     start_s: MissionTime
     end_s: UntilEnd = math.inf
     health: float = Field(ge=0, le=1, description="thrust multiplier while the fault lasts")
@@ -278,14 +285,28 @@ class Scenario(ScenarioModel):
     pilot: PilotSpec = BenchPilotSpec()
     end: End | None = None  # how the run ends: one of ENDS[pilot.type], by default the first
     expect: Expect | None = None
+    plant: str | None = Field(None, description="the plant's mapping file (docs/plant.md), relative to the scenario "
+                                                "file; none: our own FMU with the vehicle preset's rotors")
+
+    @field_validator("plant")
+    @classmethod
+    def _from_the_scenario_file(cls, plant: str | None, info: ValidationInfo) -> str | None:
+        """A relative path is the scenario file's (the loader gives its folder); kept absolute from then on."""
+        if plant is None:
+            return None
+        folder = (info.context or {}).get(SCENARIO_DIR, Path.cwd())
+        return str((Path(folder) / plant).resolve())
 
     @model_validator(mode="after")
-    def _consistent(self) -> Scenario:
-        """The checks across fields, each a separate error at its own field."""
+    def _consistent(self, info: ValidationInfo) -> Scenario:
+        """The checks across fields, each a separate error at its own field (the plant's files are not read
+        for a scenario recorded elsewhere: context READ_PLANT False)."""
         resolve_end(self)
-        errors = [*self._timing_errors(), *self._expression_errors(), *self._lift_errors(),
+        errors = [*self._timing_errors(), *self._expression_errors(),
                   *(_check(*problem) for problem in pilot_problems(self)),
                   *self._payload_errors(), *self._reference_errors()]
+        if (info.context or {}).get(READ_PLANT, True):
+            errors += [_check(loc, value, reason) for loc, value, reason in plant_problems(self)]
         if errors:
             raise ValidationError.from_exception_data(type(self).__name__, errors)
         return self
@@ -324,16 +345,6 @@ class Scenario(ScenarioModel):
                 yield _check(("payload", index, "mass_kg"), step.mass_kg,
                              f"payload[{earlier[0]}] sets {earlier[1]:g} kg at the same time (t_s = {step.t_s:g} s); "
                              "expected one mass per time")
-
-    def _lift_errors(self) -> Iterator[InitErrorDetails]:
-        """The vehicle must lift itself and its heaviest payload with some thrust to spare for control."""
-        payload = max((p.mass_kg for p in self.payload), default=0.0)
-        ratio = self.vehicle.thrust_to_weight(payload)
-        if ratio <= 1:
-            with_payload = f" with its {payload:g} kg payload" if payload else ""
-            yield _check(("vehicle", "thrust_max"), self.vehicle.thrust_max,
-                         f"thrust-to-weight {ratio:.2f}: four rotors cannot lift the vehicle{with_payload}; "
-                         f"expected above 1 (a larger thrust_max or a smaller mass)")
 
     def _reference_errors(self) -> Iterator[InitErrorDetails]:
         """What the reference cannot fly within this mission, each at its own field."""

@@ -7,8 +7,6 @@ import math
 from firmware_interface.airframes import AIRFRAMES, Airframe
 from plant_fmu.variables import PARAMETER_DEFAULTS
 
-ROTORS = 4
-
 # Rotor aerodynamics of the inspection quad, from RotorPy's AscTec Hummingbird parameter set (Folk, Paulos
 # and Kumar, "RotorPy", 2023: mass 0.5 kg, arm 0.17 m, rotor radius 0.10 m, k_eta = 5.57e-6 N/(rad/s)^2,
 # rotor drag k_d = 1.19e-4 and induced inflow k_z = 2.32e-4 N/((rad/s)(m/s)), taken there from the
@@ -44,10 +42,12 @@ def fmu_parameters(airframe: Airframe) -> dict[str, float]:
             "drag_coeff_x": drag[0], "drag_coeff_y": drag[1], "drag_coeff_z": drag[2]}
 
 
-# The inspection quad flies RotorPy's rotor aerodynamics; the paper airframe none (its model has none).
+# The inspection quad flies RotorPy's rotor aerodynamics, and so do its rotors as a hexa; the paper airframe
+# none (its model has none). The rotor count is the plant mapping's (plant_fmu/mappings), not a parameter here.
 PLANT_PRESETS: dict[str, dict[str, float]] = {
     "inspection_quad": {**fmu_parameters(AIRFRAMES["inspection_quad"]), **INSPECTION_QUAD_AERO},
     "paper_airframe": fmu_parameters(AIRFRAMES["paper_airframe"]),
+    "inspection_hexa": {**fmu_parameters(AIRFRAMES["inspection_hexa"]), **INSPECTION_QUAD_AERO},
 }
 
 
@@ -55,9 +55,9 @@ def plant_parameters(preset: str, overrides: dict[str, float]) -> dict[str, floa
     return {**PLANT_PRESETS[preset], **overrides}
 
 
-def thrust_to_weight(parameters: dict[str, float], payload_kg: float = 0.0) -> float:
-    """All rotors at full command over the weight of airframe and payload (FMU defaults under `parameters`):
-    at 1 or below the vehicle cannot take off, let alone be controlled."""
+def thrust_to_weight(parameters: dict[str, float], rotors: int, payload_kg: float = 0.0) -> float:
+    """All `rotors` at full command over the weight of airframe and payload (our FMU's defaults under
+    `parameters`): at 1 or below the vehicle cannot take off, let alone be controlled."""
     p = {**PARAMETER_DEFAULTS, **parameters}
     weight = (p["mass"] + payload_kg) * p["g"]
-    return ROTORS * p["thrust_max"] / weight if weight > 0 else math.inf
+    return rotors * p["thrust_max"] / weight if weight > 0 else math.inf

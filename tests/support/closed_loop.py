@@ -42,7 +42,7 @@ def hover(point: tuple[float, float, float], yaw: float = 0.0) -> Callable[[floa
 def scenario_inputs(scenario: Scenario, dt: float) -> Callable[[float, Plant, np.ndarray], None]:
     """The scenario's disturbance force and torque and payload steps as `fly` inputs (mission time = t): the
     same expressions the bench evaluates."""
-    environment = Environment(scenario, dt, np.random.default_rng(scenario.seed))
+    environment = Environment(scenario, dt, np.random.default_rng(scenario.seed), 4)
 
     def inputs(t: float, plant: Plant, u: np.ndarray) -> None:
         sample, i = environment.sample(t), plant.input_index

@@ -22,6 +22,7 @@ class ScriptedBoard:
     received: list[str] = field(default_factory=list)
     messages: dict[str, Any] = field(default_factory=dict)  # the last message of each kind, decoded
     armed: bool = False
+    params: dict[str, tuple[float, int]] = field(default_factory=dict)  # as PX4 keeps them: the field's value, type
 
     def start(self) -> Link:
         pair = open_pty_pair()
@@ -55,6 +56,10 @@ class ScriptedBoard:
                         if sensors > self.free_run:
                             fields = codec.hil_actuator_controls_fields(msg.time_usec, (0.5,) * 4, self.armed, True)
                             self.link.send_fields("HIL_ACTUATOR_CONTROLS", fields)
+                    elif kind == "PARAM_SET":  # PX4 keeps the field's four bytes and sends them back, typed
+                        self.params[msg.param_id] = (msg.param_value, msg.param_type)
+                        self.link.send("PARAM_VALUE", param_id=msg.param_id, param_value=msg.param_value,
+                                       param_type=msg.param_type, param_count=len(self.params), param_index=0)
                     elif kind == "COMMAND_LONG":
                         ok = msg.command != 400 or self.accept_arm
                         if ok and msg.command == 400:

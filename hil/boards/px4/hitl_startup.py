@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hil.boards.px4.parameters import param_set_lines
+
 HITL_BAUD = 921600
 # Above 5000 B/s the mavlink module opens its HIL gate; 800 kB/s leaves room for the telemetry streams.
 HITL_DATA_RATE_BPS = 800_000
@@ -81,9 +83,9 @@ echo "INFO  [hil-bench] HITL start-up complete, HIL link on {device}"
 """
 
 
-def write_hitl_startup(path: Path, device: str, params: dict[str, float] | None = None) -> Path:
+def write_hitl_startup(path: Path, device: str, params: dict[str, float | int] | None = None) -> Path:
     """Write the script for a HIL link on `device`; `params` are set after the airframe's own."""
-    lines = "".join(f"param set {name} {value:g}\n" for name, value in (params or {}).items())
+    lines = param_set_lines(params or {})
     path.write_text(_SCRIPT.format(airframe=AIRFRAME, device=device, baud=HITL_BAUD, rate=HITL_DATA_RATE_BPS,
                                    param_lines=lines))
     return path

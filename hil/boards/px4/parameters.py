@@ -1,13 +1,52 @@
-"""What a PX4 the bench started is told about the simulated vehicle, as a user configures a real one."""
+"""What a PX4 the bench started is told about the simulated vehicle, as a user configures a real one: the plant's
+rotors at start-up (its start-up script sets them after the airframe's defaults, before any module starts), and
+every parameter again through PARAM_SET, read back before arming."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
 
+# MAVLink's MAV_TYPE of a multirotor by its rotor count (tricopter, quad, hexa, octo, dodeca)
+MAV_TYPES = {3: 15, 4: 2, 6: 13, 8: 14, 12: 29}
+MOTOR_1 = 101  # PX4's output function Motor1 (Motor i is 100 + i)
 
-def px4_parameters(scenario: Scenario) -> dict[str, float]:
+
+def px4_parameters(scenario: Scenario, rotors: RotorGeometry | None) -> dict[str, float | int]:
     """EKF2_GPS_DELAY (ms) is the receiver's delay (PX4 SITL's own default of 10 ms assumes a delay-free
-    simulator GPS)."""
+    simulator GPS); the plant's rotors, if the run gives them, are PX4's control allocation."""
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
-    return {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
+    params: dict[str, float | int] = {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
+    return params | (rotor_parameters(rotors) if rotors is not None else {})
+
+
+def param_set_lines(params: dict[str, float | int]) -> str:
+    """`param set` lines for PX4's start-up shell, every value in full (repr)."""
+    return "".join(f"param set {name} {value!r}\n" for name, value in params.items())
+
+
+def write_sitl_rotor_parameters(folder: Path, rotors: RotorGeometry | None) -> Path:
+    """`px4-rc.params` in `folder`, which PX4 SITL's rcS sources after the airframe ("user defined params for
+    instances can be in PATH": put `folder` first on PX4's PATH). Set there, the rotors are in place before the
+    control allocator and the output driver start; set only while PX4 runs, a change of an output's function
+    was once seen not to reach `pwm_out_sim` before arming (motors 5 and 6 silent), which it then defers."""
+    path = folder / "px4-rc.params"
+    lines = param_set_lines(rotor_parameters(rotors)) if rotors is not None else ""
+    path.write_text("#!/bin/sh\n# Written by hil-bench: the plant's rotors on PX4 SITL's airframe\n" + lines)
+    return path
+
+
+def rotor_parameters(rotors: RotorGeometry) -> dict[str, float | int]:
+    """The plant's rotors on the airframe PX4 SITL starts with (10016, a quad): its control allocation
+    (CA_ROTOR_COUNT, CA_ROTORi_PX/PY/PZ/KM, read again on each parameter change), rotor i's output on PWM_MAIN_FUNCi
+    (SITL's pwm_out_sim reads the PWM_MAIN prefix; HITL on a Pixhawk, HIL_ACT), and MAV_TYPE. INT32 parameters
+    are ints (PX4 refuses a PARAM_SET of another type)."""
+    params: dict[str, float | int] = {name: (int(value) if name == "CA_ROTOR_COUNT" else value)
+                                      for name, value in rotors.px4_parameters().items()}
+    params |= {f"PWM_MAIN_FUNC{i}": MOTOR_1 + i - 1 for i in range(1, rotors.count + 1)}
+    if rotors.count in MAV_TYPES:
+        params["MAV_TYPE"] = MAV_TYPES[rotors.count]
+    return params

@@ -4,7 +4,8 @@ pythonfmu: the same vehicle (the bench's default 1 kg quad), its own equations a
 ENU earth frame, FLU body frame, attitude as ZYX Euler angles in degrees (FLU -> ENU), body rates in deg/s,
 rotor speeds in rpm, rotor commands as PWM 1000..2000 us, rotors lettered clockwise from the front left
 (a front-left CW, b front-right CCW, c rear-right CW, d rear-left CCW, seen from above). Heun's method
-(RK2) at a 2 ms internal step. It starts resting on flat ground at height 0.
+(RK2) at a 2 ms internal step. It starts resting on flat ground at height 0, heading `psi0_deg` (ENU: from east
+towards north).
 """
 
 import math
@@ -34,9 +35,9 @@ class EnuQuadrotor(Fmi2Slave):
         self.arm_m, self.thrust_max_n, self.curve_k, self.lag_s = 0.25, 5.0, 0.5, 0.02
         self.yaw_arm_m, self.speed_max_rad_s = 0.016, 1000.0
         self.drag_x, self.drag_y, self.drag_z = 0.25, 0.25, 0.35
-        self.h_s = 0.002
+        self.h_s, self.psi0_deg = 0.002, 0.0
         for name in ("mass_kg", "jxx", "jyy", "jzz", "arm_m", "thrust_max_n", "curve_k", "lag_s", "yaw_arm_m",
-                     "speed_max_rad_s", "drag_x", "drag_y", "drag_z", "h_s"):
+                     "speed_max_rad_s", "drag_x", "drag_y", "drag_z", "h_s", "psi0_deg"):
             self.register_variable(Real(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed))
         inputs = [f"pwm_{r}" for r in ROTORS] + ["wind_e", "wind_n", "wind_u", "push_e", "push_n", "push_u",
                                                 "twist_x", "twist_y", "twist_z", "extra_mass"]
@@ -54,6 +55,8 @@ class EnuQuadrotor(Fmi2Slave):
         self.grounded = True
 
     def exit_initialization_mode(self):
+        half = math.radians(self.psi0_deg) / 2
+        self.quat = np.array([math.cos(half), 0.0, 0.0, math.sin(half)])
         self.thrust = self._commanded()
         self._publish()
 
