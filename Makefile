@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-fast lint typecheck fmu paper clean
+.PHONY: run test test-fast lint typecheck fmu paper bench-tools clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,6 +36,11 @@ typecheck: $(STAMP)
 # docs/paper_reproduction.md and its figures, from flights of the code as it is (~15 min on 2 cores)
 paper: fmu
 	$(BIN)/python docs/paper_reproduction/build.py
+
+# what benchmarks/loop_speed.py measures the machine's own floor with, beside a paced run: cyclictest (Debian's
+# rt-tests; needs root, as apt-get does)
+bench-tools:
+	command -v cyclictest >/dev/null 2>&1 || (apt-get update -qq && apt-get install -y -qq rt-tests >/dev/null)
 
 clean:
 	rm -rf $(VENV) build runs

@@ -10,17 +10,21 @@ Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import select
+import shutil
+import signal
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
-
-import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
@@ -30,19 +34,13 @@ from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E40
 
 from firmware_interface.link import open_pty_pair  # noqa: E402
 from hil.boards.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
+from hil.host.rt_priority import FIFO_PRIORITY  # noqa: E402
 
 CONTROLLERS = ("smarc", "smpid", "backstepping")
-QUICK_HELIX_S = 3.0  # with --quick: 3 s of the helix, without the mass steps (at 10 s and 20 s)
+STEP_US = 4000  # the paced run's step: scenarios/hover.yaml at 250 Hz
+FLOOR_STALL_US = 1000  # a cyclictest wake-up this late is a stall of the machine (a quarter of a step)
 # the issue's targets (#15): ratio to the reference, real-time factor, pacing p99 in us
 TARGETS = {"gust": 2.0, "px4 hover": 0.9, "helix": 10.0, "pacing p99": 200.0}
-
-
-def quick_copy(scenario: Path, scratch: Path, **overrides: Any) -> Path:
-    """`scenario` with `overrides` (top-level fields), written into `scratch` for a --quick run."""
-    data = yaml.safe_load(scenario.read_text()) | overrides
-    short = scratch / f"quick_{scenario.name}"
-    short.write_text(yaml.safe_dump(data, sort_keys=False))
-    return short
 
 
 def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path, quick: bool) -> dict[str, Any]:
@@ -61,10 +59,47 @@ def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path,
         rtf[name] = timing["realtime_factor"]
         breakdown[name] = timing["breakdown_us_per_step"]
         board_cpu[name] = timing["board_cpu_us_per_step"]
-    paced = run_metrics(files["hover"], ["--px4-hitl", str(hitl)], scratch / "hitl", accept_exits=(0, 1))["timing"]
+    with machine_floor(scratch / "cyclictest.json") as floor:
+        paced = run_metrics(files["hover"], ["--px4-hitl", str(hitl)], scratch / "hitl",
+                            accept_exits=(0, 1))["timing"]
     pacing = {"p99": paced["period_jitter_us"]["p99"], "max": paced["period_jitter_us"]["max"],
-              "late": paced["late_steps"], "detail": paced["late_steps_detail"]}
+              "late": paced["late_steps"], "detail": paced["late_steps_detail"], "floor": floor}
     return {"rtf": rtf, "breakdown": breakdown, "board_cpu": board_cpu, "pacing": pacing}
+
+
+@contextmanager
+def machine_floor(json_path: Path) -> Iterator[dict[str, Any]]:
+    """cyclictest (Debian rt-tests) for as long as the block runs: one thread at the bench's SCHED_FIFO priority
+    waking every bench step, so the machine's own wake-up latency at the same moments as a paced run. It leaves
+    the CPUs' idle states as the bench finds them (--default-system; by default it would keep them out of deep
+    idle while it runs, and the bench beside it with them). Fills in max_us, avg_us, cycles and the wake-ups
+    later than FLOOR_STALL_US as (CLOCK_MONOTONIC s when it woke, latency us); nothing without cyclictest."""
+    found: dict[str, Any] = {}
+    exe = shutil.which("cyclictest")
+    if exe is None:
+        yield found
+        return
+    process = subprocess.Popen([exe, "--default-system", "--quiet", "--threads=1", f"--priority={FIFO_PRIORITY}",
+                                "--policy=fifo", f"--interval={STEP_US}", f"--spike={FLOOR_STALL_US}",
+                                f"--json={json_path}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        yield found
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=30)
+    if process.returncode != 0 or not json_path.is_file():
+        raise RuntimeError(f"cyclictest exited {process.returncode}: {err.strip()[-300:]}")
+    thread = json.loads(json_path.read_text())["thread"]["0"]
+    stalls = [(int(ts) * 1e-6, int(us)) for us, ts in re.findall(r"Spike:\s*(\d+):\s*TS:\s*(\d+)", out)]
+    found.update(max_us=thread["max"], avg_us=thread["avg"], cycles=thread["cycles"], stalls=stalls)
+
+
+def floor_near(late: dict[str, Any], stalls: list[tuple[float, int]]) -> int:
+    """The longest floor stall (us) overlapping the time a late step waited, widened by one step on each side:
+    cyclictest wakes once a step, so a stall between two of its wake-ups shows only as far as it reaches the next."""
+    behind_s, start_s = late["behind_ms"] * 1e-3, late["monotonic_s"]
+    window = (start_s - behind_s - STEP_US * 1e-6, start_s + STEP_US * 1e-6)
+    return max((us for woke_s, us in stalls if woke_s >= window[0] and woke_s - us * 1e-6 <= window[1]), default=0)
 
 
 def builds(args: Any, scratch: Path) -> tuple[Px4Build, Path]:
@@ -75,10 +110,11 @@ def builds(args: Any, scratch: Path) -> tuple[Px4Build, Path]:
     return sitl, find_build(Path(root), "hitl", scratch)
 
 
-def first_run(gust: Path, scratch: Path) -> tuple[float, float]:
+def first_run(gust: Path, scratch: Path, quick: bool) -> tuple[float, float]:
     """Wall-clock seconds of a whole gust run (start-up and shut-down included) with an empty flight-code cache,
-    then of the same run again with what the first compiled."""
-    env = os.environ | {"XDG_CACHE_HOME": str(scratch / "empty-cache")}
+    then of the same run again with what the first compiled. (--quick keeps the cache: compiling from nothing
+    takes ~10 s and is tested in tests/test_compiled_flight_code.py.)"""
+    env = None if quick else os.environ | {"XDG_CACHE_HOME": str(scratch / "empty-cache")}
     walls = []
     for name in ("first", "second"):
         start = time.perf_counter()
@@ -111,6 +147,27 @@ def print_table(rounds: list[dict[str, Any]], first_gust: tuple[float, float]) -
     for late in (d for p in pacing for d in p["detail"]):
         print(f"  late at {late['t_s']:.3f} s by {late['behind_ms']:.1f} ms; the step's longest part: "
               f"{late['longest_part']} {late['longest_part_ms']:.1f} ms")
+    print_floor(pacing)
+
+
+def print_floor(pacing: list[dict[str, Any]]) -> None:
+    """Each round's HITL pacing beside cyclictest's in the same minute: the worst period error against the
+    floor's worst wake-up + 1 ms, and each late step against the floor's stalls around it."""
+    if not all(p["floor"] for p in pacing):
+        print("  floor: cyclictest not found (Debian package rt-tests: `make bench-tools`); not measured")
+        return
+    print(f"  floor: cyclictest at SCHED_FIFO {FIFO_PRIORITY} every {STEP_US} us beside each run; stalls are "
+          f"wake-ups over {FLOOR_STALL_US} us late")
+    for k, p in enumerate(pacing):
+        floor = p["floor"]
+        within = "yes" if p["max"] <= floor["max_us"] + 1000 else "no"
+        outside = [d for d in p["detail"] if floor_near(d, floor["stalls"]) == 0]
+        print(f"  round {k + 1}: worst period error {p['max']:.0f} us, floor's worst {floor['max_us']} us "
+              f"(avg {floor['avg_us']:.0f} us, {floor['cycles']} wake-ups, {len(floor['stalls'])} stalls): "
+              f"within floor + 1 ms: {within}; late steps {p['late']}, "
+              f"{len(p['detail']) - len(outside)} of {len(p['detail'])} explained inside a floor stall")
+        for d in outside:
+            print(f"    late at {d['t_s']:.3f} s by {d['behind_ms']:.1f} ms with no floor stall around it")
 
 
 def kernel_floor_us(steps: int) -> float:
@@ -173,9 +230,8 @@ def main() -> int:
             print(f"loop_speed: {exc}", file=sys.stderr)
             return 2
         files = {name: scenario_file(name, args.quick, scratch) for name in ("hover", "gust")}
-        helix = ROOT / "scenarios" / "paper_helix.yaml"
-        files["helix"] = quick_copy(helix, scratch, duration_s=QUICK_HELIX_S, payload=[]) if args.quick else helix
-        first_gust = first_run(files["gust"], scratch)
+        files["helix"] = scenario_file("paper_helix", args.quick, scratch)
+        first_gust = first_run(files["gust"], scratch, args.quick)
         rounds = []
         for k in range(1 if args.quick else args.rounds):
             rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick))

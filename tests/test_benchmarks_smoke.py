@@ -31,7 +31,7 @@ FIGURES: dict[str, tuple[str, ...]] = {
                    "hil run scenarios/hover.yaml --px4 DIR", "hil run scenarios/hover.yaml (emulator)",
                    "hil run scenarios/gust.yaml (emulator)", "scenarios/paper_helix.yaml 1 kHz, smarc",
                    "1 kHz, smpid", "1 kHz, backstepping", "--px4-hitl DIR (250 Hz, wall clock) period error p99",
-                   "late steps per run", "floor: a pty round trip", "where a bench step's time goes", "wait_for_board",
+                   "late steps per run", "  floor: cyclictest", "floor: a pty round trip", "where a bench step's time goes", "wait_for_board",
                    "the board's own CPU per step", "PX4 in the reference:"),
     "memory_long_run": ("timing:", "real-time factor", "bench RSS:", "MB at start", "MB at most", "MB at the end",
                         "growth after the first", "(target ≤ 20 MB)"),

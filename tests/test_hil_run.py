@@ -87,19 +87,26 @@ def short_hover(tmp_path: Path, seconds: float = 3.0) -> Path:
     return path
 
 
-def test_same_scenario_and_seed_give_identical_recordings_in_lockstep(tmp_path):
-    scenario = short_hover(tmp_path)
-    first, second = tmp_path / "a", tmp_path / "b"
-    (r1, d1), (r2, d2) = run(scenario, first), run(scenario, second)
-    assert r1.returncode == 0 and r2.returncode == 0
-    a = simulated_content(d1)
-    assert a == simulated_content(d2)
+@pytest.fixture(scope="module")
+def same_seed_twice(tmp_path_factory) -> tuple[Path, Path]:
+    """One short scenario flown twice with the same seed (no report: the recordings are what is checked)."""
+    tmp = tmp_path_factory.mktemp("same_seed")
+    scenario = short_hover(tmp)
+    flights = [run(scenario, tmp / name, "--no-report") for name in ("a", "b")]
+    for result, _ in flights:
+        assert result.returncode == 0, result.stdout + result.stderr
+    return flights[0][1], flights[1][1]
+
+
+def test_same_scenario_and_seed_give_identical_recordings_in_lockstep(same_seed_twice):
+    first, second = same_seed_twice
+    a = simulated_content(first)
+    assert a == simulated_content(second)
     assert len(a) > 10_000
 
 
-def test_recording_opens_with_the_mcap_reader_and_has_every_channel_at_full_rate(tmp_path):
-    result, run_dir = run(short_hover(tmp_path), tmp_path / "runs")
-    assert result.returncode == 0
+def test_recording_opens_with_the_mcap_reader_and_has_every_channel_at_full_rate(same_seed_twice):
+    run_dir = same_seed_twice[0]  # a whole run, landed and disarmed
     messages = read_mcap(run_dir / "recording.mcap")
     counts = Counter(topic for topic, _, _ in messages)
     steps = counts["hil/state"]

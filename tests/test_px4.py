@@ -38,6 +38,14 @@ ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # PX4 vehicle_status.arming_st
 NAV_STATE_OFFBOARD = 14  # PX4 vehicle_status.nav_state
 
 
+def short_hover(folder: Path) -> Path:
+    """hover.yaml's flight cut to a 3 s hold 3 m up, for the tests that stop or judge a flight but not its
+    figures: each of its phases comes sooner, and a whole flight takes ~25 s simulated instead of ~70."""
+    path = folder / "short_hover.yaml"
+    path.write_text("name: short_hover\nduration_s: 3\nseed: 1\nreference: {type: hover, altitude_m: 3}\n")
+    return path
+
+
 def hil_run(*args: str, runs: Path, timeout: float = 300) -> subprocess.CompletedProcess[str]:
     """`runs` is given relative to the working directory, as a user types it (PX4 runs in a rootfs under it)."""
     relative = os.path.relpath(runs, ROOT)
@@ -200,7 +208,8 @@ def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
 
 
 def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):
-    runs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
+    scenario = short_hover(tmp_path)
+    runs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
                               "--px4", str(sitl), "--runs", str(tmp_path / str(i)), "--no-telemetry"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT) for i in range(2)]
     outputs = [run.communicate(timeout=400) for run in runs]
@@ -233,9 +242,11 @@ class PhaseWatch:
                                                  ("landing", False), ("landing", True)])
 def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, second_ctrl_c):
     watch = PhaseWatch(phase)
+    scenario = short_hover(tmp_path)
     try:
-        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
-                                  "--px4", str(sitl), "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
+        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
+                                  "--px4", str(sitl), "--runs", str(tmp_path / "runs"), "--zenoh-connect",
+                                  watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert watch.reached.wait(120), f"the run never reached {phase}"
     finally:
@@ -248,7 +259,7 @@ def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, 
     out, err = bench.communicate(timeout=30)
     assert bench.returncode == 130, out + err
     assert time.monotonic() - interrupted < 2.0
-    run_dir = only_run_dir(tmp_path)
+    run_dir = only_run_dir(tmp_path / "runs")
     assert not processes_using(run_dir)
     assert "interrupted" in (run_dir / "summary.txt").read_text()
     with open(run_dir / "recording.mcap", "rb") as f:
@@ -259,14 +270,16 @@ def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, 
 
 def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
     watch = PhaseWatch("mission")
+    scenario = short_hover(tmp_path)
     try:
-        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", "scenarios/hover.yaml",
-                                  "--px4", str(sitl), "--runs", str(tmp_path), "--zenoh-connect", watch.endpoint],
+        bench = subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
+                                  "--px4", str(sitl), "--runs", str(tmp_path / "runs"), "--zenoh-connect",
+                                  watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
         assert watch.reached.wait(120), "the run never reached the mission"
     finally:
         watch.close()
-    run_dir = only_run_dir(tmp_path)
+    run_dir = only_run_dir(tmp_path / "runs")
     daemon = [pid for pid, argv in live_processes().items()
               if argv[0].endswith("bin/px4") and str(run_dir / "px4") in argv]
     assert len(daemon) == 1, daemon

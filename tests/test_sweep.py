@@ -23,7 +23,17 @@ from tests.support.ports import free_port
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
 ROOT = Path(__file__).resolve().parent.parent
-SHORT_HOVER = ROOT / "tests" / "data" / "short_hover.yaml"
+# the sweeps below fly a 2 s hold 2 m up and disarm where they are: the sweep's bookkeeping is what they check,
+# and every second of simulated time is paid by every sample (~7 s of arming and take-off come with each)
+TINY_HOVER = ("name: tiny_hover\nduration_s: 2\nseed: 1\nreference: {type: hover, altitude_m: 2}\n"
+              "wind: {steady_ned: [1, 0, 0], turbulence: {intensity: light}}\nend: disarm\n"
+              "expect: {settle_s: 1, max_error_m: 1.0}\n")
+
+
+def tiny_hover(folder: Path) -> Path:
+    path = folder / "tiny_hover.yaml"
+    path.write_text(TINY_HOVER)
+    return path
 
 
 def hil(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
@@ -33,7 +43,7 @@ def hil(*args: str, timeout: float = 900) -> subprocess.CompletedProcess[str]:
 
 def tiny_sweep(tmp_path: Path, samples_: int = 3, extra: str = "") -> Path:
     path = tmp_path / "tiny.yaml"
-    path.write_text(f"name: tiny\nscenario: {SHORT_HOVER}\ndesign: random\nsamples: {samples_}\nseed: 5\n"
+    path.write_text(f"name: tiny\nscenario: {tiny_hover(tmp_path)}\ndesign: random\nsamples: {samples_}\nseed: 5\n"
                     "vary:\n  seed: {integers: [1, 1000]}\n  wind.steady_ned: {polar: {speed: [0, 3]}}\n"
                     f"cross:\n  board.controller: [smarc, smpid]\n{extra}")
     return path
@@ -88,11 +98,12 @@ def test_grid_design_enumerates_every_combination():
 
 def test_a_bad_sweep_file_is_one_line_per_problem_and_exit_2(tmp_path):
     grid = tmp_path / "bad.yaml"
-    grid.write_text(f"name: bad\nscenario: {SHORT_HOVER}\ndesign: grid\nvary:\n  vehicle.mass: {{uniform: [1, 2]}}\n")
+    grid.write_text(f"name: bad\nscenario: {tiny_hover(tmp_path)}\ndesign: grid\n"
+                    "vary:\n  vehicle.mass: {uniform: [1, 2]}\n")
     with pytest.raises(SweepError, match="grid design enumerates lists and ranges only"):
         load_sweep(grid)
     typo = tmp_path / "typo.yaml"
-    typo.write_text(f"name: typo\nscenario: {SHORT_HOVER}\nvary:\n  seed: {{integer: [1, 2]}}\n")
+    typo.write_text(f"name: typo\nscenario: {tiny_hover(tmp_path)}\nvary:\n  seed: {{integer: [1, 2]}}\n")
     result = hil("sweep", str(typo), "--out", str(tmp_path / "out"))
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert "typo.yaml" in result.stderr and "vary.seed" in result.stderr
@@ -113,15 +124,16 @@ def _rerun_alone(row: dict, tmp_path: Path) -> dict:
 
 
 def short_monte_carlo(folder: Path) -> Path:
-    """The shipped gust Monte Carlo (its design, draws and crossing unchanged) on a 6 s mission (the
-    shortest past gust.yaml's 5 s settle time) 2 m up (a short climb and landing), the gust at 2 s and the
-    payload at 4 s: the chain and the bookkeeping are what the tests check, and 40 full 25 s samples at 12 m
-    take ~8 min of CI (docs/sweeps.md has the full sweep's figures)."""
+    """The shipped gust Monte Carlo (its design, draws and crossing unchanged) on a 3 s mission 2 m up, judged
+    from 1 s (gust.yaml's 5 s settle time would not fit), the gust at 0.5 s and the payload at 2 s, disarmed
+    where it ends instead of landing: every varied value still acts on the flight, and the chain and the
+    bookkeeping are what the tests check. 40 full 25 s samples at 12 m take ~8 min of CI, 6 s ones that land
+    ~3 min (docs/sweeps.md has the full sweep's figures)."""
     spec = yaml.safe_load((ROOT / "sweeps" / "gust_monte_carlo.yaml").read_text())
     spec["scenario"] = str(ROOT / "scenarios" / "gust.yaml")
-    gust = {**spec["overrides"]["wind.gusts"][0], "start_s": 2}
-    spec["overrides"] |= {"duration_s": 6, "reference.altitude_m": 2, "wind.gusts": [gust],
-                          "payload": [{"t_s": 4, "mass_kg": 0.0}]}
+    gust = {**spec["overrides"]["wind.gusts"][0], "start_s": 0.5}
+    spec["overrides"] |= {"duration_s": 3, "reference.altitude_m": 2, "wind.gusts": [gust],
+                          "payload": [{"t_s": 2, "mass_kg": 0.0}], "expect.settle_s": 1, "end": "disarm"}
     path = folder / "gust_monte_carlo_short.yaml"
     path.write_text(yaml.safe_dump(spec, sort_keys=False))
     return path
@@ -163,7 +175,8 @@ def test_a_separately_started_dask_cluster_gives_the_same_results(monte_carlo, t
                                 stderr=subprocess.DEVNULL, cwd=ROOT) for _ in range(2)]
     try:
         out = tmp_path / "cluster"
-        result = hil("sweep", str(short_monte_carlo(tmp_path)), "--limit", "6", "--cluster",
+        # the first draw, flown by each of the three controllers
+        result = hil("sweep", str(short_monte_carlo(tmp_path)), "--limit", "3", "--cluster",
                      f"tcp://127.0.0.1:{port}", "--out", str(out))
         assert result.returncode == 0, result.stdout + result.stderr
     finally:
@@ -173,8 +186,8 @@ def test_a_separately_started_dask_cluster_gives_the_same_results(monte_carlo, t
             process.wait(30)
     varied = ["seed", "wind.gusts[0].peak_ned", "wind.turbulence.intensity", "payload[0].mass_kg", "board.controller"]
     rows = read_parquet(out / "sweep.parquet")
-    assert len(rows) == 6
-    for remote, local in zip(rows, local_rows[:6], strict=True):
+    assert len(rows) == 3
+    for remote, local in zip(rows, local_rows[:3], strict=True):
         assert {v: remote[v] for v in varied} == {v: local[v] for v in varied}
         assert flight_metrics(remote, varied) == flight_metrics(local, varied)
     assert "Dask cluster at tcp://127.0.0.1" in (out / "sweep.md").read_text()
@@ -187,7 +200,9 @@ def _comparable(rows: list[dict]) -> list[dict]:
 
 @pytest.mark.slow
 def test_ctrl_c_keeps_finished_samples_and_resume_gives_the_uninterrupted_result(tmp_path):
-    sweep = tiny_sweep(tmp_path, samples_=3)
+    # 2 draws x 2 controllers: the Ctrl-C lands at most 0.2 s after the second result while the third sample
+    # flies for seconds, so 2 samples are left to --resume (any number left proves the same)
+    sweep = tiny_sweep(tmp_path, samples_=2)
     whole = tmp_path / "whole"
     assert hil("sweep", str(sweep), "--out", str(whole)).returncode == 0
     stopped = tmp_path / "stopped"
@@ -200,7 +215,7 @@ def test_ctrl_c_keeps_finished_samples_and_resume_gives_the_uninterrupted_result
     out, err = process.communicate(timeout=60)
     assert process.returncode == 130, out + err
     partial = read_parquet(stopped / "sweep.parquet")
-    assert 2 <= len(partial) < 6 and "interrupted" in (stopped / "sweep.md").read_text()
+    assert 2 <= len(partial) < 4 and "interrupted" in (stopped / "sweep.md").read_text()
     assert hil("sweep", str(sweep), "--resume", "--out", str(stopped)).returncode == 0
     assert _comparable(read_parquet(stopped / "sweep.parquet")) == _comparable(read_parquet(whole / "sweep.parquet"))
 
@@ -208,8 +223,8 @@ def test_ctrl_c_keeps_finished_samples_and_resume_gives_the_uninterrupted_result
 @pytest.mark.slow
 def test_a_sample_that_cannot_fly_is_a_result_and_the_sweep_finishes(tmp_path):
     sweep = tmp_path / "heavy.yaml"
-    sweep.write_text(f"name: heavy\nscenario: {SHORT_HOVER}\ndesign: grid\n"
-                     "overrides: {payload: [{t_s: 1, mass_kg: 0.0}]}\n"
+    sweep.write_text(f"name: heavy\nscenario: {tiny_hover(tmp_path)}\ndesign: grid\n"
+                     "overrides: {duration_s: 3, payload: [{t_s: 0.5, mass_kg: 0.0}]}\n"
                      "vary:\n  payload[0].mass_kg: [0.0, 3.0]\n")
     out = tmp_path / "out"
     result = hil("sweep", str(sweep), "--out", str(out))
@@ -222,7 +237,7 @@ def test_a_sample_that_cannot_fly_is_a_result_and_the_sweep_finishes(tmp_path):
 
 def test_compare_says_when_seeds_cannot_change_a_deterministic_study(tmp_path):
     scenario = tmp_path / "still.yaml"
-    scenario.write_text("name: still\nduration_s: 4\nexpect: {settle_s: 1}\nreference: {type: hover, altitude_m: 2}\n"
+    scenario.write_text("name: still\nduration_s: 2\nexpect: {settle_s: 1}\nreference: {type: hover, altitude_m: 2}\n"
                         "end: disarm\n"
                         "sensors: {imu: {profile: ideal}, mag: {profile: ideal}, baro: {profile: ideal}, "
                         "gps: {profile: ideal}}\nboard: {state_source: truth}\n")
@@ -233,7 +248,7 @@ def test_compare_says_when_seeds_cannot_change_a_deterministic_study(tmp_path):
 
 def test_sample_values_reach_the_flown_scenario(tmp_path):
     spec = load_sweep(tiny_sweep(tmp_path))
-    base = yaml.safe_load(SHORT_HOVER.read_text())
+    base = yaml.safe_load(tiny_hover(tmp_path).read_text())
     sample = Sample(0, {"seed": 42, "wind.steady_ned": [1.0, -2.0, 0.0], "board.controller": "smpid"})
     data = scenario_data(base, spec, sample)
     assert data["seed"] == 42 and data["wind"]["steady_ned"] == [1.0, -2.0, 0.0]

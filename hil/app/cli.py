@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import gc
 import sys
 from pathlib import Path
 from typing import Any
@@ -184,9 +185,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    if argv is None:  # the command line: the process ends with the command
+        try:
+            return _command(sys.argv[1:])
+        finally:
+            # the interpreter's shutdown collects garbage as it clears each module: over the ~60k objects the
+            # imports built that took 0.15-0.3 s of every command. Frozen, they are freed all the same, untraversed.
+            gc.freeze()
+    return _command(argv)
+
+
+def _command(argv: list[str]) -> int:
     from plant_fmu.build import FmuBuildError
 
-    argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["emulate"]:
         return _emulate(argv[1:])
     args = build_parser().parse_args(argv)

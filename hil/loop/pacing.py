@@ -28,7 +28,7 @@ class Pacer:
         started = time.perf_counter()
         behind = started - deadline
         if behind > self.period_s:
-            self.timing.add_late(t_us, behind)
+            self.timing.add_late(t_us, behind, started)
         if behind > REALTIME_SLIP_S:
             self.timing.add_slip(behind)
             deadline = started

@@ -61,13 +61,16 @@ class LoopTiming:
             self.period_error.add(abs(start_s - self._last_step_start - period_s))
         self._last_step_start = start_s
 
-    def add_late(self, t_us: int, behind_s: float) -> None:
+    def add_late(self, t_us: int, behind_s: float, started_s: float) -> None:
         """A step that started more than a period late, with the longest part of the step before it (a slow
-        part of the bench, or, when that part is short, a stall outside the step: the sleep or the machine)."""
+        part of the bench, or, when that part is short, a stall outside the step: the sleep or the machine), and
+        when it started on the machine's monotonic clock (`perf_counter`: CLOCK_MONOTONIC, the clock of a
+        latency measurement taken beside the run, such as cyclictest's)."""
         self.late_steps += 1
         if len(self.late_detail) < LATE_DETAIL:
             self.late_detail.append({"t_s": t_us * 1e-6, "behind_ms": behind_s * 1e3,
-                                     "longest_part": self.longest[0], "longest_part_ms": self.longest[1] * 1e3})
+                                     "longest_part": self.longest[0], "longest_part_ms": self.longest[1] * 1e3,
+                                     "monotonic_s": started_s})
 
     def add_slip(self, behind_s: float) -> None:
         self.slips += 1
