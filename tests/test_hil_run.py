@@ -17,7 +17,6 @@ from mcap.reader import make_reader
 from tests.support.cli_runs import emulator_pids, run, wait_flying
 from tests.support.recording_digest import (
     CHECKSUMS,
-    NEEDS_AN_AUTOPILOT,
     numeric_platform,
     recorded_here,
     shipped_scenarios,
@@ -37,9 +36,7 @@ def read_mcap(path: Path) -> list[tuple[str, int, bytes]]:
         return [(ch.topic, msg.log_time, msg.data) for _, ch, msg in make_reader(f).iter_messages()]
 
 
-@pytest.mark.parametrize("scenario", [*SHIPPED, *(pytest.param(ROOT / "scenarios" / f"{name}.yaml",
-                                                              marks=pytest.mark.skip(reason=f"{name}: {why}"))
-                                                 for name, why in NEEDS_AN_AUTOPILOT.items())], ids=lambda p: p.stem)
+@pytest.mark.parametrize("scenario", SHIPPED, ids=lambda p: p.stem)
 def test_shipped_scenario_flies_on_the_emulator_with_its_expectations_met(scenario, shipped_flight):
     result, run_dir = shipped_flight(scenario)
     assert result.returncode == 0, result.stdout + result.stderr

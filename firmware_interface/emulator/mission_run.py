@@ -65,6 +65,7 @@ class MissionRun:
             return
         self.missions.advance(self.seq)
         item = items[self.seq]
+        previous = None if first or self.phase != "item" else self.target  # the item just flown: the leg starts there
         self.target = target = self._target(item)
         self.reached_since_us = None
         last = self.navigator.last
@@ -76,7 +77,7 @@ class MissionRun:
             self.move = self.navigator.move_to(np.array((target[0], target[1], last.pos_ned[2])), t_us, item.yaw_rad)
         else:
             self.phase = "item"
-            self.move = self.navigator.move_to(target, t_us, self._heading(item, target))
+            self.move = self.navigator.move_to(target, t_us, self._heading(item, target), previous)
 
     def _climb(self, t_us: int, target: np.ndarray) -> None:
         navigator = self.navigator

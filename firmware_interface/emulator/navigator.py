@@ -135,11 +135,13 @@ class Navigator:
         stop_s = max(0.5, 2 * float(np.linalg.norm(last.vel_ned)) / self.limits().accel_xy)
         return last.pos_ned + last.vel_ned * stop_s / 2
 
-    def move_to(self, target_ned: np.ndarray, t_us: int, yaw: float | None, speed_xy: float | None = None) -> Move:
-        """A move from the last reference (or the vehicle at rest) to `target_ned`."""
+    def move_to(self, target_ned: np.ndarray, t_us: int, yaw: float | None,
+                line_start: np.ndarray | None = None) -> Move:
+        """A move from the last reference to `target_ned`, along the line from `line_start` (None: from the last
+        reference)."""
         start = self.last
         assert start is not None
-        move = Move(start, t_us, target_ned, yaw, self.limits(speed_xy))
+        move = Move(start, t_us, target_ned, yaw, self.limits(), line_start)
         self.reference = move
         return move
 

@@ -72,17 +72,9 @@ def recorded_here() -> dict[str, Any] | None:
     return next((entry for entry in entries if entry["platform"] == numeric_platform()), None)
 
 
-# Shipped scenarios the emulator does not pass yet. patrol_mission: the emulator flies the mission (every item
-# reached, RTL, landed 0.78 m from home), but in the first gust across the span SMARC leaves the planned leg by up
-# to 4.8 m and 3.5 m of height (its mass estimate ends 33 % high) where the scenario allows 3 m (2 m clear of the
-# conductor); PX4 stays within 1.2-2.2 m (tests/test_mission_pilot.py). The digests take it once it passes.
-NEEDS_AN_AUTOPILOT = {"patrol_mission": "the emulator's SMARC leaves the planned leg by 4.8 m in the first gust "
-                                        "(expect max_cross_track_m: 3): a flight-code finding, not retuned to pass"}
-
-
 def shipped_scenarios() -> list[Path]:
-    """The shipped scenarios the emulator flies."""
-    return sorted(p for p in (ROOT / "scenarios").glob("*.yaml") if p.stem not in NEEDS_AN_AUTOPILOT)
+    """The shipped scenarios (the emulator flies them all)."""
+    return sorted((ROOT / "scenarios").glob("*.yaml"))
 
 
 def main() -> int:
