@@ -94,7 +94,7 @@ def _environment(run_dir: Path, settings: LinkSettings) -> dict[str, str]:
     then lengthens its link-loss timeouts, which an outside pilot's wall-clock messages would otherwise break)."""
     speed_factor = settings.speed_factor
     scripts = (run_dir / "px4-scripts").resolve()
-    scripts.mkdir(exist_ok=True)
+    scripts.mkdir(parents=True, exist_ok=True)
     (scripts / "px4-rc.mavlink").write_text(RC_MAVLINK.format(port=BENCH_LINK_PORT, remote=BENCH_LINK_REMOTE_PORT))
     write_sitl_rotor_parameters(scripts, settings.rotors)
     env = {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1",
