@@ -174,6 +174,26 @@ class MissionItemReached(_Sample):
     seq: int = _f("the mission item just reached (PX4 repeats it ten times at 1 Hz)")
 
 
+class Battery(_Sample):
+    """The plant's battery as the BATTERY_STATUS sent at this step carries it (before MAVLink's rounding to mV, cA,
+    mAh and whole percent), at the scenario's battery.rate_hz."""
+
+    voltage_v: float = _f("pack voltage at the terminals, V")
+    current_a: float = _f("pack current, A, positive discharging")
+    consumed_c: float = _f("charge drawn since the start, C (mAh = C / 3.6)")
+    remaining: float = _f("state of charge, 1 full … 0 empty")
+    cell_voltages_v: list[float] = _f("each cell at the terminals, V (empty: the plant gives none)")
+
+
+class ManualControl(_Sample):
+    """The sticks of the MANUAL_CONTROL sent at this step (PX4's manual_control_setpoint: each in [-1, 1])."""
+
+    pitch: float = _f("forward +")
+    roll: float = _f("right +")
+    throttle: float = _f("up +, 0 centred (MANUAL_CONTROL z = 500)")
+    yaw: float = _f("clockwise seen from above +")
+
+
 class LinkCounters(_Sample):
     """Telemetry only: the link's frame counters, once per second."""
 
@@ -188,7 +208,8 @@ CHANNEL_MODELS: dict[str, type[_Sample]] = {
     "board/heartbeat": Heartbeat, "board/statustext": StatusText, "board/command_ack": CommandAck,
     "board/local_position_ned": LocalPositionNed, "board/attitude": AttitudeEstimate,
     "board/extended_sys_state": ExtendedSysState, "board/mission_current": MissionCurrent,
-    "board/mission_item_reached": MissionItemReached, "board/link": LinkCounters,
+    "board/mission_item_reached": MissionItemReached, "board/link": LinkCounters, "battery": Battery,
+    "manual_control": ManualControl,
 }
 RECORDED_CHANNELS = tuple(c for c in CHANNEL_MODELS if c != "board/link")
 # board message type (MAVLink name) → its channel

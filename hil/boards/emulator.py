@@ -44,13 +44,16 @@ class EmulatorProcess:
 
 
 def emulator_config(scenario: Scenario, rotors: RotorGeometry | None = None) -> dict:
-    """What the emulator is told: the scenario's board settings, EKF2_GPS_DELAY set to the receiver's delay, as a
+    """What the emulator is told: the scenario's board settings and PX4 parameters, EKF2_GPS_DELAY set to the
+    receiver's delay, as a
     user would set the parameter for the GPS on the vehicle, and the plant's rotors for its mixer, as a user sets
     PX4's control allocation for the frame (unless the scenario's board.config gives the mixer rotors of its own)."""
     board = scenario.board
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     config = {"airframe": board.airframe or scenario.vehicle.preset, "controller": board.controller,
               "state_source": board.state_source, **board.config}
+    if board.params:  # PX4's parameters for every board (board.params), with the emulator's own (board.config)
+        config["params"] = {**board.params, **config.get("params", {})}
     estimator = dict(config.get("estimator", {}))
     estimator.setdefault("gps_delay_s", gps.delay_s)
     config["estimator"] = estimator

@@ -17,6 +17,7 @@ from hil.boards.px4.parameters import px4_parameters, rotor_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.px4_sitl import PX4_START_TIMEOUT_S
 from hil.boards.target import BoardPolicy, LinkSettings
+from hil.scenario.failsafe import px4_parameter_values
 from hil.scenario.schema import Scenario
 
 HITL_POLICY = BoardPolicy("px4_hitl", "PX4 (its own estimator and controllers)",
@@ -41,7 +42,7 @@ class Px4HitlTarget:
         try:
             rotors = rotor_parameters(settings.rotors) if settings.rotors is not None else {}
             script = write_hitl_startup(run_dir.resolve() / "px4-hitl.rcS", pair.slave_path,  # PX4 runs elsewhere
-                                        rotors)
+                                        rotors | px4_parameter_values(scenario.board.params))
             px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
                              extra_args=("-s", str(script)), preexec=partial(child_setup, claim.number))
         except BaseException:

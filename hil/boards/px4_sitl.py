@@ -21,7 +21,7 @@ from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link
 from hil.boards.handle import BoardHandle
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
-from hil.boards.px4.parameters import px4_parameters, write_sitl_rotor_parameters
+from hil.boards.px4.parameters import px4_parameters, sitl_start_parameters, write_sitl_start_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.target import BoardPolicy, LinkSettings
 from hil.scenario.schema import Scenario
@@ -65,7 +65,8 @@ class Px4SitlTarget:
         n = claim.number
         try:
             px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log",
-                             _environment(run_dir, settings), preexec=partial(child_setup, n))
+                             _environment(run_dir, settings, sitl_start_parameters(scenario, settings.rotors)),
+                             preexec=partial(child_setup, n))
         except BaseException:
             listener.close()
             claim.release()
@@ -88,15 +89,16 @@ class Px4SitlTarget:
         return handle
 
 
-def _environment(run_dir: Path, settings: LinkSettings) -> dict[str, str]:
-    """PX4's environment for the run: the airframe, no GUI, the bench's px4-rc.mavlink and px4-rc.params (the
-    plant's rotors) first in PATH, and PX4_SIM_SPEED_FACTOR when the run is paced faster than the wall clock (PX4
-    then lengthens its link-loss timeouts, which an outside pilot's wall-clock messages would otherwise break)."""
+def _environment(run_dir: Path, settings: LinkSettings, params: dict[str, float | int]) -> dict[str, str]:
+    """PX4's environment for the run: the airframe, no GUI, the bench's px4-rc.mavlink and px4-rc.params (`params`:
+    the plant's rotors, the scenario's parameters) first in PATH, and PX4_SIM_SPEED_FACTOR when the run is paced
+    faster than the wall clock (PX4 then lengthens its link-loss timeouts, which an outside pilot's wall-clock
+    messages would otherwise break)."""
     speed_factor = settings.speed_factor
     scripts = (run_dir / "px4-scripts").resolve()
     scripts.mkdir(parents=True, exist_ok=True)
     (scripts / "px4-rc.mavlink").write_text(RC_MAVLINK.format(port=BENCH_LINK_PORT, remote=BENCH_LINK_REMOTE_PORT))
-    write_sitl_rotor_parameters(scripts, settings.rotors)
+    write_sitl_start_parameters(scripts, params)
     env = {"PX4_SYS_AUTOSTART": "10016", "PX4_SIM_MODEL": "none_iris", "HEADLESS": "1",
            "PATH": f"{scripts}{os.pathsep}{os.environ.get('PATH', '')}"}
     if speed_factor != 1.0:

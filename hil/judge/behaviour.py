@@ -2,20 +2,23 @@
 items it reached and in which order, its distance from the planned legs, the modes it went through, how high it
 flew, when it was disarmed and where it came to rest. A sink of the loop; `verdicts` judges a scenario's behaviour
 expectations (`expect:` mission_completed, home_within_m, max_cross_track_m, disarmed_by_s, max_altitude_m,
-modes_seen), each with the bench time at which it was decided."""
+modes_seen, and through `hil.judge.failsafe` failsafe and no_failsafe), each with the bench time at which it was
+decided."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from firmware_interface.px4_modes import mode_name
+from hil.judge.failsafe import FailsafeJudge, failsafe_judge
 from hil.judge.mission_progress import MissionProgress
 from hil.judge.planned_path import PlannedPath
+from hil.judge.verdict import Moment, Verdict
 from hil.loop.frame import StepFrame
 from hil.loop.sink import Outcome
 from hil.loop.streaming_stats import Extremes
@@ -23,35 +26,7 @@ from hil.scenario.pilot_spec import BenchPilotSpec
 from hil.scenario.schema import Bounds, Scenario
 
 BEHAVIOUR = ("mission_completed", "home_within_m", "max_cross_track_m", "disarmed_by_s", "max_altitude_m",
-             "modes_seen")
-
-
-@dataclass(frozen=True)
-class Verdict:
-    expectation: str  # its name in `expect:`
-    met: bool
-    found: str  # what the flight did, as a reader wants it
-    bound: str
-    decided_t_us: int  # the bench time at which it was decided
-    decided_mission_t: float | None  # the same on the mission clock (None before the mission clock ran)
-
-    def line(self) -> str:
-        when = (f"mission time {self.decided_mission_t:.2f} s" if self.decided_mission_t is not None
-                else f"bench time {self.decided_t_us * 1e-6:.2f} s")
-        return f"{self.expectation}: {self.found} (expected {self.bound}), decided at {when}"
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
-@dataclass
-class _Moment:
-    t_us: int
-    mission_t: float
-
-    @property
-    def clock(self) -> float | None:
-        return self.mission_t if math.isfinite(self.mission_t) else None
+             "modes_seen", "failsafe", "no_failsafe")
 
 
 @dataclass
@@ -60,21 +35,23 @@ class BehaviourJudge:
 
     path: PlannedPath | None  # the mission the flight is judged against, when it has one
     bounds: Bounds | None = None  # the expectations, so that a bound is decided at the step that breaks it
-    progress: MissionProgress[_Moment] | None = None  # through that mission
-    modes: dict[str, _Moment] = field(default_factory=dict)  # each mode as first seen
+    progress: MissionProgress[Moment] | None = None  # through that mission
+    failsafes: FailsafeJudge = field(default_factory=lambda: FailsafeJudge(None, [], 0.0))  # triggers, reactions
+    modes: dict[str, Moment] = field(default_factory=dict)  # each mode as first seen
     cross_track: Extremes = field(default_factory=lambda: Extremes(1))
     along_track_at_switch: dict[int, float] = field(default_factory=dict)  # leg -> progress when it was left
-    max_height: tuple[float, _Moment] | None = None
-    first_over: dict[str, _Moment] = field(default_factory=dict)  # a bound first broken
-    disarmed: _Moment | None = None  # the outputs disarmed after take-off
+    max_height: tuple[float, Moment] | None = None
+    first_over: dict[str, Moment] = field(default_factory=dict)  # a bound first broken
+    disarmed: Moment | None = None  # the outputs disarmed after take-off
     _armed_after_takeoff = False
     _current: int | None = None
     _last_along: float = 0.0
-    _last_cross_track: _Moment | None = None
+    _last_cross_track: Moment | None = None
     _last: StepFrame | None = None
 
     def on_step(self, frame: StepFrame) -> None:
-        now = _Moment(frame.t_us, frame.mission_t)
+        now = Moment(frame.t_us, frame.mission_t)
+        self.failsafes.on_step(frame)
         for kind, payload in frame.board:
             if kind == "HEARTBEAT" and payload["custom_mode"]:  # 0: PX4 booting, no mode yet
                 mode = mode_name(payload["custom_mode"])
@@ -101,7 +78,7 @@ class BehaviourJudge:
     def close(self, outcome: Outcome) -> None:
         """Nothing to close: `verdicts` and `figures` give the results."""
 
-    def _armed_state(self, frame: StepFrame, now: _Moment) -> None:
+    def _armed_state(self, frame: StepFrame, now: Moment) -> None:
         if math.isfinite(frame.mission_t) and frame.mission_t >= 0 and frame.armed:
             self._armed_after_takeoff, self.disarmed = True, None
         elif self._armed_after_takeoff and not frame.armed and self.disarmed is None:
@@ -115,7 +92,7 @@ class BehaviourJudge:
             self.along_track_at_switch[self._current] = self._last_along
         self._current = seq
 
-    def _track(self, pos_ned: np.ndarray, now: _Moment) -> None:
+    def _track(self, pos_ned: np.ndarray, now: Moment) -> None:
         assert self.path is not None and self._current is not None
         leg = self.path.leg_to(self._current)
         if leg is None or (self.progress is not None and self._current in self.progress.reached):
@@ -125,7 +102,7 @@ class BehaviourJudge:
         self._last_cross_track = now
         self._over("max_cross_track_m", cross, now)
 
-    def _over(self, name: str, value: float, now: _Moment) -> None:
+    def _over(self, name: str, value: float, now: Moment) -> None:
         bound = getattr(self.bounds, name, None) if self.bounds is not None else None
         if bound is not None and value > bound and name not in self.first_over:
             self.first_over[name] = now
@@ -134,7 +111,8 @@ class BehaviourJudge:
     def figures(self) -> dict[str, Any]:
         """What the flight did, for metrics.json."""
         figures: dict[str, Any] = {"modes_seen": list(self.modes),
-                                   "max_height_m": self.max_height[0] if self.max_height else None}
+                                   "max_height_m": self.max_height[0] if self.max_height else None,
+                                   "failsafe": self.failsafes.figures()}
         if self.progress is not None:
             figures["mission_items_reached"] = sorted(self.progress.reached)
         if self.path is not None:
@@ -158,17 +136,19 @@ class BehaviourJudge:
         """Each behaviour expectation of `bounds`, judged."""
         if bounds is None or self._last is None:
             return []
-        end = _Moment(self._last.t_us, self._last.mission_t)
-        judged: dict[str, Callable[[Any, _Moment], Verdict]] = {
+        end = Moment(self._last.t_us, self._last.mission_t)
+        judged: dict[str, Callable[[Any, Moment], Verdict]] = {
             "mission_completed": self._mission_completed, "home_within_m": self._home_within,
             "max_cross_track_m": self._max_cross_track, "disarmed_by_s": self._disarmed_by,
-            "max_altitude_m": self._max_altitude, "modes_seen": self._modes_seen}
+            "max_altitude_m": self._max_altitude, "modes_seen": self._modes_seen,
+            "failsafe": self.failsafes.failsafe_verdict,
+            "no_failsafe": lambda wanted, end: self.failsafes.no_failsafe_verdict(end)}
         return [judged[name](getattr(bounds, name), end) for name in BEHAVIOUR if getattr(bounds, name) is not None]
 
-    def _verdict(self, name: str, met: bool, found: str, bound: str, when: _Moment) -> Verdict:
+    def _verdict(self, name: str, met: bool, found: str, bound: str, when: Moment) -> Verdict:
         return Verdict(name, met, found, bound, when.t_us, when.clock)
 
-    def _mission_completed(self, wanted: bool, end: _Moment) -> Verdict:
+    def _mission_completed(self, wanted: bool, end: Moment) -> Verdict:
         progress = self.progress
         assert progress is not None  # the scenario's checks: mission_completed needs a planned mission
         if progress.complete:
@@ -181,7 +161,7 @@ class BehaviourJudge:
             when = end
         return self._verdict("mission_completed", progress.complete == wanted, found, str(wanted).lower(), when)
 
-    def _home_within(self, limit: float, end: _Moment) -> Verdict:
+    def _home_within(self, limit: float, end: Moment) -> Verdict:
         offset = self.rest_offset_m()
         rest = self.disarmed if self.disarmed is not None else end
         if self.disarmed is None:
@@ -191,7 +171,7 @@ class BehaviourJudge:
         return self._verdict("home_within_m", offset <= limit, f"came to rest {offset:.2f} m from home",
                              f"≤ {limit:g} m", rest)
 
-    def _max_cross_track(self, limit: float, end: _Moment) -> Verdict:
+    def _max_cross_track(self, limit: float, end: Moment) -> Verdict:
         stats = self.cross_track.stats(("cross_track",)).get("cross_track")
         if not stats:
             return self._verdict("max_cross_track_m", False, "no leg was flown", f"≤ {limit:g} m", end)
@@ -200,7 +180,7 @@ class BehaviourJudge:
         return self._verdict("max_cross_track_m", over is None, found, f"≤ {limit:g} m",
                              over or self._last_cross_track or end)
 
-    def _disarmed_by(self, deadline: float, end: _Moment) -> Verdict:
+    def _disarmed_by(self, deadline: float, end: Moment) -> Verdict:
         at = self.disarmed
         if at is None or at.clock is None or at.clock > deadline:
             found = "not disarmed after take-off" if at is None else f"disarmed at mission time {at.clock:.2f} s"
@@ -208,13 +188,13 @@ class BehaviourJudge:
         return self._verdict("disarmed_by_s", True, f"disarmed at mission time {at.clock:.2f} s",
                              f"by {deadline:g} s", at)
 
-    def _max_altitude(self, limit: float, end: _Moment) -> Verdict:
+    def _max_altitude(self, limit: float, end: Moment) -> Verdict:
         height = self.max_height[0] if self.max_height else 0.0
         over = self.first_over.get("max_altitude_m")
         return self._verdict("max_altitude_m", over is None, f"highest {height:.2f} m above home",
                              f"≤ {limit:g} m", over or end)
 
-    def _modes_seen(self, wanted: list[str], end: _Moment) -> Verdict:
+    def _modes_seen(self, wanted: list[str], end: Moment) -> Verdict:
         missing = [mode for mode in wanted if mode not in self.modes]
         seen = ", ".join(self.modes) or "none"
         if missing:
@@ -228,6 +208,8 @@ def behaviour_judge(scenario: Scenario, bounds: Bounds | None) -> BehaviourJudge
     """The judge of a scenario's flight, against its planned mission when it has one: the mission pilot's, or the
     one an outside pilot is expected to fly (none for the bench pilot's flights)."""
     pilot = scenario.pilot
+    failsafes = failsafe_judge(scenario, bounds.failsafe if bounds is not None else None)
     if isinstance(pilot, BenchPilotSpec) or not pilot.planned:
-        return BehaviourJudge(None, bounds)
-    return BehaviourJudge(PlannedPath(pilot.items, scenario.home.frame), bounds, MissionProgress(pilot.items))
+        return BehaviourJudge(None, bounds, failsafes=failsafes)
+    return BehaviourJudge(PlannedPath(pilot.items, scenario.home.frame), bounds, MissionProgress(pilot.items),
+                          failsafes)

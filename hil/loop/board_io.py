@@ -29,6 +29,7 @@ class BoardIO:
         self.frame = frame
         self.steady_wind_ned = steady_wind_ned
         self.timing = timing
+        self.ground_station_lost = False  # the relay's traffic is dropped both ways (a ground-station loss)
 
     def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
                   readings: codec.SensorReadings, gps: codec.GpsFix | None, truth: PlantState) -> None:
@@ -67,15 +68,17 @@ class BoardIO:
                                                  tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
 
     def _relay_gcs(self) -> None:
-        """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames."""
+        """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames (neither way in
+        a ground-station loss)."""
         gcs, board = self.board.gcs, self.board
         assert gcs is not None
         for session in board.sessions:
             frames = session.take_relayed()
-            if frames:
+            if frames and not self.ground_station_lost:
                 gcs.to_gcs(frames)
         for frame in gcs.from_gcs():
-            board.command_session.link.send_frame(frame)
+            if not self.ground_station_lost:
+                board.command_session.link.send_frame(frame)
 
     @staticmethod
     def _local_truth(t_us: int, truth: PlantState) -> codec.LocalTruth:

@@ -30,3 +30,4 @@ class StepFrame:
     step_wall_s: float = 0.0
     round_trip_s: float | None = None
     messages: list[tuple[str, dict[str, Any]]] | None = None  # the channel payloads, built once (recorder)
+    sent: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # battery, sticks sent (hil.loop.senders)

@@ -13,7 +13,7 @@ import time
 import traceback
 from collections.abc import Callable
 from contextlib import nullcontext
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import BoardError
@@ -30,6 +30,7 @@ from hil.loop.board_messages import decode_board_message
 from hil.loop.frame import StepFrame
 from hil.loop.pacing import Pacer
 from hil.loop.pilot import Decision, Pilot, PilotView, RunAborted
+from hil.loop.senders import Senders
 from hil.loop.sink import Sink
 from hil.loop.timing import LoopTiming
 from hil.scenario.environment import Environment, EnvironmentSample
@@ -43,13 +44,15 @@ Progress = Callable[[str, float, float, float], None]  # phase, bench time (s), 
 @dataclass
 class World:
     """What the bench simulates and the loop steps: the plant, its sensors, the environment acting on it, the
-    local frame of the ground truth, and the faults injected on the links to the board."""
+    local frame of the ground truth, the faults injected on the links to the board, and the other senders the
+    board hears from (its battery, a ground station's joystick, and that ground station's loss)."""
 
     plant: Plant
     sensors: SensorSuite
     environment: Environment
     local_frame: LocalFrame
     link_faults: list[LinkFaults]
+    senders: Senders = field(default_factory=Senders)
 
 
 @dataclass
@@ -82,6 +85,7 @@ class Stepper:
         self._pending: StepFrame | None = None  # the last step's frame, handed to the sinks during the next step
         self._pending_inbox: list[Message] = []  # its board messages, decoded then too (off the board's wait)
         self._unseen: list[Message] = []  # the board's messages the pilot has not been shown yet
+        self._cell_failed = False  # the scenario's battery cell failure has been set in the plant
 
     def run(self) -> LoopResult:
         started = time.perf_counter()
@@ -160,8 +164,9 @@ class Stepper:
         if decision is None:
             self.finished = True  # asked once more it would have nothing to decide
             return None
-        for ask in decision.asks:
-            self.board.command_session.ask(ask)
+        if not self.world.senders.ground_station_lost(decision.mission_t):  # the bench's commands are a GCS's
+            for ask in decision.asks:
+                self.board.command_session.ask(ask)
         self.phase, self.mission_t = decision.phase, decision.mission_t
         environment = self.world.environment.sample(decision.mission_t if decision.flying else -1.0)
         self.timing.lap("phase_and_environment")
@@ -177,6 +182,8 @@ class Stepper:
         mission_t = decided.mission_t
         world.plant.set_input_groups(self.motors, env.motor_health, env.wind_ned, env.force_ned, env.torque_frd,
                                      env.payload_kg)
+        if env.battery_fault is not None and not self._cell_failed:
+            self._fail_cell(*env.battery_fault)
         world.plant.step(self.dt)
         self.truth = truth = world.plant.state()
         self.t_us += self.dt_us
@@ -187,7 +194,9 @@ class Stepper:
         for faults in world.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = timing.lap("sensors")
+        self._silence_ground_station(mission_t)
         self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, readings, gps, truth)
+        others = world.senders.send(self.board.command_session, self.t_us, mission_t, truth, self.emit)
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")
         early = self._decide() if self.io.decides_early else None
@@ -195,12 +204,26 @@ class Stepper:
         round_trip = timing.lap("wait_for_board") - sent if session.lockstep else None
         self._pending = StepFrame(self.t_us, mission_t, decided.phase, truth, decided.reference, readings, gps,
                                   self.motors, self.armed, env, board_offset_ned=decided.board_offset_ned,
-                                  step_wall_s=time.perf_counter() - timing.started, round_trip_s=round_trip)
+                                  step_wall_s=time.perf_counter() - timing.started, round_trip_s=round_trip,
+                                  sent=others)
         self._pending_inbox = self.io.take_inbox()
         self._unseen += self._pending_inbox
         self._board_texts(self._pending_inbox)
         timing.lap("frame")
         return early
+
+    def _silence_ground_station(self, mission_t: float) -> None:
+        """In a ground-station loss nothing a ground station sends reaches the board: the bench's own heartbeat
+        (its commands: `_decide`) and the relay's traffic stop; the HIL frames flow on."""
+        lost = self.world.senders.ground_station_lost(mission_t)
+        for session in self.board.sessions:
+            session.ground_station_silent = lost
+        self.io.ground_station_lost = lost
+
+    def _fail_cell(self, cell: int, resistance_ohm: float, voltage_v: float) -> None:
+        self.world.plant.set_battery_fault(cell, resistance_ohm, voltage_v)
+        self._cell_failed = True
+        self.emit(f"battery: cell {cell} fails {self.when()} (+{resistance_ohm:g} Ohm, -{voltage_v:g} V)")
 
     def _take_reply(self, actuators: codec.ActuatorOutputs | None) -> None:
         if actuators is not None:

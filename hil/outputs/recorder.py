@@ -103,6 +103,8 @@ def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
                                          "epv_m": g.epv_m, "fix_type": g.fix_type, "satellites": g.satellites}))
     for kind, payload in frame.board:
         messages.append((BOARD_CHANNEL[kind], {"t_us": t, **payload}))
+    for channel, payload in frame.sent:
+        messages.append((channel, {"t_us": t, **payload}))
     return messages
 
 

@@ -8,6 +8,7 @@ from hil.loop.pilot import Pilot
 from hil.pilots.bench import BenchPilot
 from hil.pilots.external import ExternalPilot
 from hil.pilots.mission import MissionPilot
+from hil.pilots.sticks import SticksPilot
 from hil.scenario.mission import MissionPlan
 from hil.scenario.pilot_spec import MissionPilotSpec
 from hil.scenario.schema import Scenario
@@ -22,6 +23,7 @@ PILOTS: dict[str, Callable[[Scenario, MissionPlan, int], Pilot]] = {
     "bench": lambda scenario, plan, dt_us: BenchPilot(plan, str(scenario.end), dt_us),
     "mission": _mission,
     "external": lambda scenario, plan, dt_us: ExternalPilot(str(scenario.end), scenario.duration_s, dt_us),
+    "sticks": lambda scenario, plan, dt_us: SticksPilot(str(scenario.end), scenario.duration_s, dt_us),
 }
 
 

@@ -8,8 +8,8 @@ import textwrap
 from typing import Any
 
 from hil.exit_codes import verdict
-from hil.judge.behaviour import Verdict
 from hil.judge.metrics import slip_note
+from hil.judge.verdict import Verdict
 from hil.scenario.schema import Scenario
 
 SUMMARY_WIDTH = 100  # columns: the summary fits a terminal and the file reads the same

@@ -10,6 +10,7 @@ import numpy as np
 
 from firmware_interface.link.faults import FaultSpec, LinkFaults
 from hil.boards.handle import BoardHandle
+from hil.loop.senders import senders_for
 from hil.loop.stepper import World
 from hil.scenario.environment import Environment
 from hil.scenario.mission import MissionPlan
@@ -60,7 +61,7 @@ def build_world(scenario: Scenario, board: BoardHandle, plant: Plant) -> World:
     suite = SensorSuite(sensors, scenario.home, scenario.rate_hz, sensor_rng)
     environment = Environment(scenario, step_us(scenario) / 1e6, env_rng, plant.rotor_count)
     faults = _inject_link_faults(scenario, board, rng.spawn(1)[0]) if scenario.faults.link else []
-    return World(plant, suite, environment, scenario.home.frame, faults)
+    return World(plant, suite, environment, scenario.home.frame, faults, senders_for(scenario))
 
 
 def _inject_link_faults(scenario: Scenario, board: BoardHandle, rng: np.random.Generator) -> list[LinkFaults]:

@@ -23,6 +23,7 @@ class EnvironmentSample:
     torque_frd: np.ndarray
     payload_kg: float
     motor_health: tuple[float, ...]  # per rotor, PX4's motor order
+    battery_fault: tuple[int, float, float] | None = None  # a failed cell: (cell, Ω gained, V lost), from its time
 
 
 class Environment:
@@ -44,6 +45,9 @@ class Environment:
         self.torque = scenario.disturbance.functions("torque_frd")
         self.payload = sorted((p.t_s, p.mass_kg) for p in scenario.payload)
         self.motor_faults = scenario.faults.motors
+        failure = scenario.battery.failure if scenario.battery is not None else None
+        self.cell_failure = None if failure is None else (failure.t_s, (failure.cell, failure.resistance_ohm,
+                                                                         failure.voltage_v))
 
     def sample(self, t: float) -> EnvironmentSample:
         wind = self.steady.copy()
@@ -61,5 +65,6 @@ class Environment:
         for fault in self.motor_faults:
             if fault.start_s <= t < fault.end_s:
                 health[fault.motor - 1] = min(health[fault.motor - 1], fault.health)
+        failed = self.cell_failure[1] if self.cell_failure is not None and t >= self.cell_failure[0] else None
         return EnvironmentSample(wind, np.array([f(t) for f in self.force]), np.array([f(t) for f in self.torque]),
-                                 payload, tuple(health))
+                                 payload, tuple(health), failed)

@@ -8,9 +8,9 @@ MAX_MASS_KG. `hil.scenario.schema` and the reference types (`hil.scenario.refere
 from __future__ import annotations
 
 import math
-from typing import Annotated
+from typing import Annotated, TypeAlias
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Discriminator, Field, Tag
 
 from hil.sensors.geodesy import MAX_DISTANCE_M
 
@@ -37,3 +37,13 @@ class ScenarioModel(BaseModel):
     """A part of the scenario file: an unknown key is an error, NaN and ±inf are refused."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+def number_unless(when: tuple[type, ...]) -> Discriminator:
+    """Picks the "other" branch of a number-or-other union by the value's Python type (one of `when`), so
+    that a mistake is reported once, by the branch the value was meant for, rather than once by each."""
+    return Discriminator(lambda value: "other" if isinstance(value, when) else "number")
+
+
+ExpressionOrNumber: TypeAlias = Annotated[Annotated[float, Tag("number")] | Annotated[str, Tag("other")],
+                                          number_unless((str,))]

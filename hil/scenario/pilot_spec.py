@@ -1,6 +1,7 @@
 """Who flies the vehicle, as a scenario says it (`pilot:`): the bench itself (`bench`, the default), PX4's own
-mission started by the bench acting as the ground station (`mission`), or someone else (`external`:
-QGroundControl, a joystick through it, MAVSDK, MAVROS), the bench being only the world.
+mission started by the bench acting as the ground station (`mission`), someone else (`external`:
+QGroundControl, a joystick through it, MAVSDK, MAVROS), the bench being only the world, or a person with sticks
+(`sticks`: the scenario's `manual_control:`, after the bench has selected POSCTL and armed).
 
 A mission is a QGroundControl `.plan` file (`plan:`, relative to the scenario file) or the same items inline
 (`items:`). The plan is read when the scenario loads, and the resolved scenario carries its items beside the plan's
@@ -69,11 +70,20 @@ class ExternalPilotSpec(_Planned):
     type: Literal["external"]
 
 
-PilotSpec = Annotated[BenchPilotSpec | MissionPilotSpec | ExternalPilotSpec, Field(discriminator="type"),
+class SticksPilotSpec(_Planned):
+    """A person with sticks: the bench selects POSCTL and arms, as a pilot does from the ground station, and from
+    then on only the scenario's `manual_control:` sticks fly (the take-off, the flight, the landing); `plan`/`items`,
+    when given, is the mission the person is expected to fly (judged only)."""
+
+    type: Literal["sticks"]
+
+
+PilotSpec = Annotated[BenchPilotSpec | MissionPilotSpec | ExternalPilotSpec | SticksPilotSpec,
+                      Field(discriminator="type"),
                       BeforeValidator(lambda value: {"type": value} if isinstance(value, str) else value)]
 
 # how a run may end, per pilot, the default first: land (the bench lands it), disarm (the bench disarms it where
 # it is), landed (the board has taken off, landed and disarmed), duration (at duration_s, or Ctrl-C)
 End = Literal["land", "disarm", "landed", "duration"]
 ENDS: dict[str, tuple[End, ...]] = {"bench": ("land", "disarm"), "mission": ("landed",),
-                                   "external": ("landed", "duration")}
+                                   "external": ("landed", "duration"), "sticks": ("landed", "duration")}

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from firmware_interface.airframes import AIRFRAMES
-from hil.scenario.vehicles import plant_parameters, thrust_to_weight
+from hil.scenario.vehicles import hover_power_w, pack_max_power_w, plant_parameters, thrust_to_weight
 from plant_fmu.checks import check_rotor_count
 from plant_fmu.mapping import BUILT_IN, Mapping, MappingError, RotorGeometry, default_mapping_path, load_mapping
 from plant_fmu.resolve import PARAMETER_CAUSALITIES, resolve
@@ -79,7 +79,8 @@ def scenario_parameters(scenario: Scenario, facts: PlantFacts) -> dict[str, floa
     """The FMU parameters the scenario sets: our FMU takes the vehicle preset with its overrides; a foreign FMU,
     whose names are its own, only the overrides."""
     overrides = scenario.vehicle.overrides
-    return plant_parameters(scenario.vehicle.preset, overrides) if facts.built_in else dict(overrides)
+    battery = scenario.battery.fmu_parameters(every=facts.built_in) if scenario.battery is not None else {}
+    return {**(plant_parameters(scenario.vehicle.preset, overrides) if facts.built_in else overrides), **battery}
 
 
 def plant_problems(scenario: Scenario) -> Iterator[tuple[Loc, Any, str]]:
@@ -99,6 +100,8 @@ def plant_problems(scenario: Scenario) -> Iterator[tuple[Loc, Any, str]]:
     yield from _parameter_problems(scenario, facts)
     yield from _input_problems(scenario, facts)
     yield from _lift_problems(scenario, facts)
+    if scenario.battery is not None:
+        yield from _battery_problems(scenario, facts)
 
 
 def _parameter_problems(scenario: Scenario, facts: PlantFacts) -> Iterator[tuple[Loc, Any, str]]:
@@ -152,3 +155,33 @@ def _lift_problems(scenario: Scenario, facts: PlantFacts) -> Iterator[tuple[Loc,
         yield ("vehicle", "thrust_max"), scenario.vehicle.thrust_max, (
             f"thrust-to-weight {ratio:.2f}: its {rotors} rotors cannot lift the vehicle{with_payload}; "
             "expected above 1 (a larger thrust_max or a smaller mass)")
+
+
+BATTERY_OUTPUTS = ("battery_voltage", "battery_current", "battery_consumed", "battery_remaining")
+BATTERY_FAULT_INPUTS = ("battery_fault_cell", "battery_fault_resistance", "battery_fault_voltage")
+
+
+def _battery_problems(scenario: Scenario, facts: PlantFacts) -> Iterator[tuple[Loc, Any, str]]:
+    """`battery:` needs a plant with battery outputs (and its parameters, and the fault inputs for a failure); our
+    FMU's pack must also power the hover at full charge."""
+    battery = scenario.battery
+    assert battery is not None
+    name = facts.mapping.source.name
+    missing = [port for port in BATTERY_OUTPUTS if port not in facts.mapping.spec.outputs]
+    if missing:
+        yield ("battery",), None, (f"the plant mapping {name} gives no battery outputs ({', '.join(missing)}); "
+                                   "expected a plant with a battery, or no battery: section")
+        return
+    for parameter in battery.fmu_parameters(every=False):
+        if parameter not in facts.parameters:
+            yield ("battery",), None, f"no parameter {parameter!r} in the plant {name}'s FMU for it; expected one"
+    if battery.failure is not None and not set(BATTERY_FAULT_INPUTS) <= facts.inputs:
+        yield ("battery", "failure"), None, f"the plant mapping {name} gives its FMU no battery fault inputs"
+    if facts.built_in:
+        parameters = scenario_parameters(scenario, facts)
+        payload = max((p.mass_kg for p in scenario.payload), default=0.0)
+        needed, most = hover_power_w(parameters, facts.mapping.rotor_count, payload), pack_max_power_w(parameters)
+        if needed > most:
+            yield ("battery",), None, (
+                f"at full charge its {battery.cells} cells deliver at most {most:.0f} W (V²/4R), the hover needs "
+                f"{needed:.0f} W; expected more cells or less resistance")

@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, TypeAlias
 from pydantic import (
     BaseModel,
     ConfigDict,
-    Discriminator,
     Field,
     Tag,
     ValidationError,
@@ -36,10 +35,12 @@ from firmware_interface.emulator.control.registry import ControllerName
 from firmware_interface.px4_modes import PX4_MODE_NAMES
 from hil.channels import CHANNEL_MODELS
 from hil.scenario.expressions import ExpressionError, compile_expression
+from hil.scenario.failsafe import Battery, FailsafeExpected, GroundStationLoss, ManualControl, failsafe_problems
 from hil.scenario.fields import (
     MAX_MASS_KG,
     SCENARIO_DIR,
     Duration,
+    ExpressionOrNumber,
     Length,
     Mass,
     MissionTime,
@@ -48,6 +49,7 @@ from hil.scenario.fields import (
     Speed,
     UntilEnd,
     WindVector,
+    number_unless,
 )
 from hil.scenario.pilot_checks import pilot_problems, resolve_end
 from hil.scenario.pilot_spec import BenchPilotSpec, End, PilotSpec
@@ -65,17 +67,9 @@ MISSION_TIMES = ("start_s", "t_s", "settle_s")  # fields, in any part of a scena
 READ_PLANT = "read_plant"  # validation context: False to take the plant field as written (a recorded run)
 
 
-def _number_unless(when: tuple[type, ...]) -> Discriminator:
-    """Picks the "other" branch of a number-or-other union by the value's Python type (one of `when`), so
-    that a mistake is reported once, by the branch the value was meant for, rather than once by each."""
-    return Discriminator(lambda value: "other" if isinstance(value, when) else "number")
-
-
-ExpressionOrNumber: TypeAlias = Annotated[Annotated[float, Tag("number")] | Annotated[str, Tag("other")],
-                                          _number_unless((str,))]
 ErrorBound: TypeAlias = Annotated[
     Annotated[PositiveFloat, Tag("number")]
-    | Annotated[tuple[PositiveFloat, PositiveFloat, PositiveFloat], Tag("other")], _number_unless((list, tuple))]
+    | Annotated[tuple[PositiveFloat, PositiveFloat, PositiveFloat], Tag("other")], number_unless((list, tuple))]
 if TYPE_CHECKING:  # the names are data (the channel table, PX4's modes); to a type checker they are strings
     ChannelName = str
     PX4ModeName = str
@@ -198,6 +192,7 @@ class Faults(ScenarioModel):
     motors: list[MotorFault] = Field(default_factory=list)
     sensors: list[SensorFault] = Field(default_factory=list)
     link: list[LinkFault] = Field(default_factory=list)
+    ground_station: list[GroundStationLoss] = Field(default_factory=list, max_length=100)
 
 
 class Board(ScenarioModel):
@@ -207,6 +202,9 @@ class Board(ScenarioModel):
     airframe: AirframeName | None = None  # default: the vehicle preset
     state_source: Literal["estimator", "truth"] = "estimator"
     config: dict[str, Any] = Field(default_factory=dict, description="any further EmulatorConfig fields")
+    params: dict[str, float] = Field(default_factory=dict, description=(
+        "PX4 parameters for any board (failsafe actions and thresholds): the emulator's at start-up, PX4's at "
+        "start-up when the bench starts it and through PARAM_SET, read back, before arming"))
 
     @field_validator("config")
     @classmethod
@@ -232,6 +230,8 @@ class Bounds(ScenarioModel):
     disarmed_by_s: MissionTime | None = None  # disarmed on the ground by this mission time (s after take-off)
     max_altitude_m: Length | None = None  # height above home, the whole flight
     modes_seen: list[PX4ModeName] | None = None  # PX4's modes (HEARTBEAT.custom_mode), each at least once
+    failsafe: FailsafeExpected | None = None  # the board's reaction to a trigger (hil.scenario.failsafe)
+    no_failsafe: bool | None = None  # never in a failsafe action while armed (HEARTBEAT MAV_STATE_CRITICAL)
 
 
 class Expect(Bounds):
@@ -282,6 +282,8 @@ class Scenario(ScenarioModel):
     faults: Faults = Faults()
     board: Board = Board()
     telemetry: Telemetry = Telemetry()
+    battery: Battery | None = None  # the plant's pack, and BATTERY_STATUS to the board
+    manual_control: ManualControl | None = None  # sticks, as a ground station's joystick sends them
     pilot: PilotSpec = BenchPilotSpec()
     end: End | None = None  # how the run ends: one of ENDS[pilot.type], by default the first
     expect: Expect | None = None
@@ -304,7 +306,8 @@ class Scenario(ScenarioModel):
         resolve_end(self)
         errors = [*self._timing_errors(), *self._expression_errors(),
                   *(_check(*problem) for problem in pilot_problems(self)),
-                  *self._payload_errors(), *self._reference_errors()]
+                  *self._payload_errors(), *self._reference_errors(),
+                  *(_check(*problem) for problem in failsafe_problems(self))]
         if (info.context or {}).get(READ_PLANT, True):
             errors += [_check(loc, value, reason) for loc, value, reason in plant_problems(self)]
         if errors:

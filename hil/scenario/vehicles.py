@@ -61,3 +61,26 @@ def thrust_to_weight(parameters: dict[str, float], rotors: int, payload_kg: floa
     p = {**PARAMETER_DEFAULTS, **parameters}
     weight = (p["mass"] + payload_kg) * p["g"]
     return rotors * p["thrust_max"] / weight if weight > 0 else math.inf
+
+
+def cell_open_circuit_v(soc: float) -> float:
+    """One LiPo cell's open-circuit voltage at state of charge `soc` (M. Chen and G. A. Rincon-Mora, IEEE Trans.
+    Energy Conversion 21(2), 2006), the curve our FMU's battery follows (docs/plant.md)."""
+    return -1.031 * math.exp(-35 * soc) + 3.685 + 0.2156 * soc - 0.1178 * soc**2 + 0.3201 * soc**3
+
+
+def hover_power_w(parameters: dict[str, float], rotors: int, payload_kg: float = 0.0) -> float:
+    """The electrical power our FMU's pack delivers in a hover: each rotor gives T = m·g/n at the speed
+    w = w_max·sqrt(T/T_max) against the drag torque k_m·T, so P = n·k_m·T·w / efficiency (docs/plant.md)."""
+    p = {**PARAMETER_DEFAULTS, **parameters}
+    thrust = (p["mass"] + payload_kg) * p["g"] / rotors
+    speed = p["rotor_speed_max"] * math.sqrt(thrust / p["thrust_max"])
+    return rotors * p["yaw_moment_coeff"] * thrust * speed / p["battery_efficiency"]
+
+
+def pack_max_power_w(parameters: dict[str, float]) -> float:
+    """The most power our FMU's pack can deliver at full charge besides its base current I_b: (I - I_b)(V - R·I) = P
+    has a real root while P <= (V - R·I_b)^2 / (4R), with V = N·V_oc(1) and R = N·r."""
+    p = {**PARAMETER_DEFAULTS, **parameters}
+    volts, ohms = p["battery_cells"] * cell_open_circuit_v(1.0), p["battery_cells"] * p["battery_cell_resistance"]
+    return math.inf if ohms == 0 else (volts - ohms * p["battery_base_current"]) ** 2 / (4 * ohms)

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hil.scenario.failsafe import px4_parameter_values
 from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
@@ -17,10 +18,20 @@ MOTOR_1 = 101  # PX4's output function Motor1 (Motor i is 100 + i)
 
 def px4_parameters(scenario: Scenario, rotors: RotorGeometry | None) -> dict[str, float | int]:
     """EKF2_GPS_DELAY (ms) is the receiver's delay (PX4 SITL's own default of 10 ms assumes a delay-free
-    simulator GPS); the plant's rotors, if the run gives them, are PX4's control allocation."""
+    simulator GPS); the plant's rotors, if the run gives them, are PX4's control allocation; the scenario's
+    `board.params` (failsafe actions and thresholds) as they are."""
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     params: dict[str, float | int] = {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
-    return params | (rotor_parameters(rotors) if rotors is not None else {})
+    return params | (rotor_parameters(rotors) if rotors is not None else {}) | px4_parameter_values(
+        scenario.board.params)
+
+
+def sitl_start_parameters(scenario: Scenario, rotors: RotorGeometry | None) -> dict[str, float | int]:
+    """What PX4 SITL's start-up sets before its modules start: the plant's rotors, the scenario's `board.params`, and
+    with a `battery:` section SIM_BAT_ENABLE 0, so that SITL's rcS does not start its battery_simulator, whose
+    battery_status would fight the bench's (mavlink_receiver publishes BATTERY_STATUS on the same topic instance)."""
+    params = (rotor_parameters(rotors) if rotors is not None else {}) | px4_parameter_values(scenario.board.params)
+    return params | ({"SIM_BAT_ENABLE": 0} if scenario.battery is not None else {})
 
 
 def param_set_lines(params: dict[str, float | int]) -> str:
@@ -28,14 +39,15 @@ def param_set_lines(params: dict[str, float | int]) -> str:
     return "".join(f"param set {name} {value!r}\n" for name, value in params.items())
 
 
-def write_sitl_rotor_parameters(folder: Path, rotors: RotorGeometry | None) -> Path:
+def write_sitl_start_parameters(folder: Path, params: dict[str, float | int]) -> Path:
     """`px4-rc.params` in `folder`, which PX4 SITL's rcS sources after the airframe ("user defined params for
-    instances can be in PATH": put `folder` first on PX4's PATH). Set there, the rotors are in place before the
-    control allocator and the output driver start; set only while PX4 runs, a change of an output's function
-    was once seen not to reach `pwm_out_sim` before arming (motors 5 and 6 silent), which it then defers."""
+    instances can be in PATH": put `folder` first on PX4's PATH) and before it starts its modules. Set there, the
+    rotors are in place before the control allocator and the output driver start; set only while PX4 runs, a change
+    of an output's function was once seen not to reach `pwm_out_sim` before arming (motors 5 and 6 silent), which
+    it then defers."""
     path = folder / "px4-rc.params"
-    lines = param_set_lines(rotor_parameters(rotors)) if rotors is not None else ""
-    path.write_text("#!/bin/sh\n# Written by hil-bench: the plant's rotors on PX4 SITL's airframe\n" + lines)
+    path.write_text("#!/bin/sh\n# Written by hil-bench: the plant and the scenario on PX4 SITL's airframe\n"
+                    + param_set_lines(params))
     return path
 
 
