@@ -197,8 +197,10 @@ class Flight:
 
     def _detect_landing(self, state: VehicleState, dt: float, t_us: int) -> None:
         out = self.last_control
+        # without a position estimate (a blind descent) the horizontal velocity is not known and not judged, as
+        # PX4's MulticopterLandDetector skips it when its local position's v_xy is invalid
         still = (abs(float(state.vel_ned[2])) < LAND_Z_VEL_MAX_M_S
-                 and float(np.hypot(state.vel_ned[0], state.vel_ned[1])) < LAND_XY_VEL_MAX_M_S
+                 and (self.navigator.blind or float(np.hypot(state.vel_ned[0], state.vel_ned[1])) < LAND_XY_VEL_MAX_M_S)
                  and out is not None and out.thrust_n < LAND_LOW_THRUST_FRACTION * self.hover_thrust_n)
         self.land_evidence_s = self.land_evidence_s + dt if still else 0.0
         if self.land_evidence_s >= LAND_TRIGGER_S:

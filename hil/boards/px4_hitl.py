@@ -13,7 +13,7 @@ from hil.boards.gcs_relay import DEFAULT_GCS
 from hil.boards.handle import BoardHandle
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
 from hil.boards.px4.hitl_startup import write_hitl_startup
-from hil.boards.px4.parameters import px4_parameters, rotor_parameters
+from hil.boards.px4.parameters import battery_parameters, px4_parameters, rotor_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.px4_sitl import PX4_START_TIMEOUT_S
 from hil.boards.target import BoardPolicy, LinkSettings
@@ -42,7 +42,8 @@ class Px4HitlTarget:
         try:
             rotors = rotor_parameters(settings.rotors) if settings.rotors is not None else {}
             script = write_hitl_startup(run_dir.resolve() / "px4-hitl.rcS", pair.slave_path,  # PX4 runs elsewhere
-                                        rotors | px4_parameter_values(scenario.board.params))
+                                        rotors | px4_parameter_values(scenario.board.params)
+                                        | battery_parameters(scenario))
             px4 = Px4Process(self.build, claim, run_dir / "px4", run_dir / "px4.log", {"HEADLESS": "1"},
                              extra_args=("-s", str(script)), preexec=partial(child_setup, claim.number))
         except BaseException:

@@ -55,6 +55,7 @@ class Joystick:
 @dataclass
 class Senders:
     battery: Periodic | None = None  # BATTERY_STATUS, when the scenario has a battery: section
+    cells: int | None = None  # the pack's cells (our FMU gives 14 cell voltages, 0 beyond them); None: all given
     joystick: Joystick | None = None
     ground_station_loss: list[Window] = field(default_factory=list)
     _lost: dict[str, bool] = field(default_factory=lambda: {"ground station": False, "joystick": False})
@@ -68,12 +69,13 @@ class Senders:
         sent: list[tuple[str, dict[str, Any]]] = []
         battery = truth.battery
         if self.battery is not None and battery is not None and self.battery.due(t_us):
+            cells = battery.cell_voltages_v.tolist()[:self.cells]
             fields = battery_status_fields(battery.voltage_v, battery.current_a, battery.consumed_c, battery.remaining,
-                                           battery.cell_voltages_v.tolist())
+                                           cells)
             session.send_as_component(BATTERY_COMPONENT_ID, "BATTERY_STATUS", fields)
             sent.append(("battery", {"voltage_v": battery.voltage_v, "current_a": battery.current_a,
                                      "consumed_c": battery.consumed_c, "remaining": battery.remaining,
-                                     "cell_voltages_v": battery.cell_voltages_v.tolist()}))
+                                     "cell_voltages_v": cells}))
         gcs_lost = self.ground_station_lost(mission_t)
         self._note("ground station", gcs_lost, notes, "its heartbeats, commands, joystick and relayed traffic stop")
         joystick = self.joystick
@@ -94,11 +96,13 @@ class Senders:
             notes(f"{what} lost: {effect}" if lost else f"{what} back")
 
 
-def senders_for(scenario: Scenario) -> Senders:
-    """The senders a scenario asks for (`battery:`, `manual_control:`, `faults.ground_station`)."""
+def senders_for(scenario: Scenario, our_plant: bool) -> Senders:
+    """The senders a scenario asks for (`battery:`, `manual_control:`, `faults.ground_station`); `our_plant`: the
+    battery's cell count is the scenario's (another plant's battery is its own)."""
     battery = scenario.battery
     sticks = scenario.manual_control
     joystick = None if sticks is None else Joystick(sticks.positions(), Periodic(round(1e6 / sticks.rate_hz)),
                                                     [(w.start_s, w.end_s) for w in sticks.loss])
-    return Senders(None if battery is None else Periodic(round(1e6 / battery.rate_hz)), joystick,
+    cells = battery.cells if battery is not None and (our_plant or "cells" in battery.model_fields_set) else None
+    return Senders(None if battery is None else Periodic(round(1e6 / battery.rate_hz)), cells, joystick,
                    [(w.start_s, w.end_s) for w in scenario.faults.ground_station])

@@ -219,6 +219,44 @@ def gps(view: View) -> Figure | None:
     return fig
 
 
+def battery(view: View) -> Figure | None:
+    """The battery as the bench reported it to the board: pack voltage (and each cell), current, charge left with
+    the board's thresholds (the scenario's board.params, else PX4's defaults)."""
+    flight = view.flight
+    if not flight.samples("battery"):
+        return None
+    fig, axes = new_figure(view, 3, 6.5)
+    t = flight.time("battery")
+    plot_line(axes[0, 0], t, flight.column("battery", "voltage_v"), color=TRUTH, label="pack")
+    axes[0, 0].set_ylabel("voltage (V)")
+    plot_line(axes[1, 0], t, flight.column("battery", "current_a"), color=TRUTH, label="current (discharging)")
+    axes[1, 0].set_ylabel("current (A)")
+    plot_line(axes[2, 0], t, 100 * flight.column("battery", "remaining"), color=TRUTH, label="charge left")
+    params = flight.scenario.get("board", {}).get("params", {})
+    for name, default, style in (("BAT_LOW_THR", 0.15, ":"), ("BAT_CRIT_THR", 0.07, "--"),
+                                 ("BAT_EMERGEN_THR", 0.05, "-.")):
+        axes[2, 0].axhline(100 * params.get(name, default), color=COMMANDED, linestyle=style, linewidth=1.0,
+                           label=name)
+    axes[2, 0].set_ylabel("charge (%)")
+    for ax in axes[:, 0]:
+        legend(ax)
+    return fig
+
+
+def sticks(view: View) -> Figure | None:
+    """The stick positions of the MANUAL_CONTROL messages sent (none sent in a loss)."""
+    flight = view.flight
+    if not flight.samples("manual_control"):
+        return None
+    fig, axes = new_figure(view, 1, 3.0)
+    t = flight.time("manual_control")
+    for name, colour in zip(("pitch", "roll", "throttle", "yaw"), (TRUTH, COMMANDED, "tab:green", BOARD), strict=True):
+        axes[0, 0].plot(t, flight.column("manual_control", name), ".", markersize=2, color=colour, label=name)
+    axes[0, 0].set(ylabel="stick (-1..1)", ylim=(-1.1, 1.1))
+    legend(axes[0, 0])
+    return fig
+
+
 def timing(view: View) -> Figure:
     """Wall time per step against the simulated step (below it the bench runs faster than real time), and the
     sensor → actuator round trip, as percentiles per second."""
@@ -259,6 +297,9 @@ FIGURES: tuple[tuple[str, str, Builder], ...] = (
     ("Controller internals", ("The controller's mass estimate m̂ against the true mass, and its disturbance "
      "estimate d̂ against the true disturbance."), controller_internals),
     ("GPS", "Fix type, satellites and the reported accuracies of the fixes sent to the board.", gps),
+    ("Battery", ("The plant's battery as each BATTERY_STATUS sent to the board carried it: pack voltage, current, "
+     "charge left, against the board's battery thresholds."), battery),
+    ("Sticks", "The stick positions of each MANUAL_CONTROL sent to the board (gaps: the joystick lost).", sticks),
     ("Timing", ("Wall time of the bench's steps against the simulated step (below it: faster than real time), and "
      "the sensor → actuator round trip: median, p99 and max per second, log scales."), timing),
 )

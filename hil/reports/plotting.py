@@ -83,11 +83,19 @@ def markers_of(flight: Flight) -> Markers:
         gusts=[(g["start_s"], g["start_s"] + g["duration_s"], f"gust {i + 1}")
                for i, g in enumerate(s.get("wind", {}).get("gusts", []))],
         motor_faults=[(m["start_s"], until(m.get("end_s")), f"motor {m['motor']} at {m['health']:.0%}")
-                      for m in faults.get("motors", [])],
+                      for m in faults.get("motors", [])] + _cell_failure(s, end),
         sensor_faults=[(f["start_s"], until(f.get("end_s")), f"{f['sensor']} {f['kind']}") for f in sensor_faults],
-        link_faults=[(f["start_s"], until(f.get("end_s")), f"link {f['kind']}") for f in faults.get("link", [])],
+        link_faults=[(f["start_s"], until(f.get("end_s")), f"link {f['kind']}") for f in faults.get("link", [])]
+        + [(f["start_s"], until(f.get("end_s")), "ground station lost") for f in faults.get("ground_station", [])]
+        + [(f["start_s"], until(f.get("end_s")), "joystick lost")
+           for f in (s.get("manual_control") or {}).get("loss", [])],
         payload_steps=[(p["t_s"], f"payload {p['mass_kg']:g} kg") for p in s.get("payload", [])],
     )
+
+
+def _cell_failure(scenario: dict[str, Any], end: float) -> list[tuple[float, float, str]]:
+    failure = (scenario.get("battery") or {}).get("failure")
+    return [] if not failure else [(failure["t_s"], end, f"battery cell {failure['cell']} fails")]
 
 
 def thin(t: np.ndarray, y: np.ndarray, max_points: int = MAX_POINTS) -> tuple[np.ndarray, np.ndarray]:

@@ -31,7 +31,8 @@ from hil.channels import BOARD_CHANNEL, TOPIC_PREFIX
 G_NED_M_S2 = np.array([0.0, 0.0, STANDARD_GRAVITY_M_S2])
 # what the reports read (the IMU, magnetometer and barometer channels are most of a recording and unused)
 REPORT_CHANNELS = ("state", "reference", "environment", "actuators", "timing", "events", "sensors/gps",
-                   "board/attitude_target", "board/estimates", "board/local_position_ned", "board/attitude")
+                   "board/attitude_target", "board/estimates", "board/local_position_ned", "board/attitude", "battery",
+                   "manual_control")
 _MAGIC = b"\x89MCAP0\r\n"
 _HEADER, _U16, _U32, _U64 = struct.Struct("<BQ"), struct.Struct("<H"), struct.Struct("<I"), struct.Struct("<Q")
 

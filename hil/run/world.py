@@ -61,7 +61,8 @@ def build_world(scenario: Scenario, board: BoardHandle, plant: Plant) -> World:
     suite = SensorSuite(sensors, scenario.home, scenario.rate_hz, sensor_rng)
     environment = Environment(scenario, step_us(scenario) / 1e6, env_rng, plant.rotor_count)
     faults = _inject_link_faults(scenario, board, rng.spawn(1)[0]) if scenario.faults.link else []
-    return World(plant, suite, environment, scenario.home.frame, faults, senders_for(scenario))
+    senders = senders_for(scenario, plant_facts(mapping_path(scenario)).built_in)
+    return World(plant, suite, environment, scenario.home.frame, faults, senders)
 
 
 def _inject_link_faults(scenario: Scenario, board: BoardHandle, rng: np.random.Generator) -> list[LinkFaults]:

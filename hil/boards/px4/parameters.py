@@ -23,15 +23,30 @@ def px4_parameters(scenario: Scenario, rotors: RotorGeometry | None) -> dict[str
     gps = resolve(GPS_PROFILES, scenario.sensors.gps.profile, scenario.sensors.gps.overrides)
     params: dict[str, float | int] = {"EKF2_GPS_DELAY": round(gps.delay_s * 1000.0, 3)}
     return params | (rotor_parameters(rotors) if rotors is not None else {}) | px4_parameter_values(
-        scenario.board.params)
+        scenario.board.params) | battery_parameters(scenario)
+
+
+# PX4 v1.15.4 publishes a MAVLink BATTERY_STATUS with time_remaining_s left at 0 (mavlink_receiver.cpp
+# handle_message_battery_status: `battery_status_s battery_status{}`, the field never set), and its battery check
+# reads that as no flight time left: once the RTL time estimate is valid (in the air) battery_low_remaining_time is
+# set (batteryCheck.cpp rtlEstimateCheck). With COM_FLTT_LOW_ACT 3 (PX4's default) the vehicle returned 1 s after
+# take-off; with 0 PX4 still held 5 s in AUTO.LOITER and resumed; with 1 it only warns ("Failsafe activated",
+# no mode change), and the charge's own levels (BAT_*_THR, COM_LOW_BAT_ACT) act as they should.
+EXTERNAL_BATTERY = {"COM_FLTT_LOW_ACT": 1}  # warning
+
+
+def battery_parameters(scenario: Scenario) -> dict[str, float | int]:
+    """What PX4 needs to fly on the bench's battery (`battery:`): the remaining-flight-time failsafe only warns."""
+    return dict(EXTERNAL_BATTERY) if scenario.battery is not None else {}
 
 
 def sitl_start_parameters(scenario: Scenario, rotors: RotorGeometry | None) -> dict[str, float | int]:
     """What PX4 SITL's start-up sets before its modules start: the plant's rotors, the scenario's `board.params`, and
-    with a `battery:` section SIM_BAT_ENABLE 0, so that SITL's rcS does not start its battery_simulator, whose
-    battery_status would fight the bench's (mavlink_receiver publishes BATTERY_STATUS on the same topic instance)."""
+    with a `battery:` section `battery_parameters` and SIM_BAT_ENABLE 0, so that SITL's rcS does not start its
+    battery_simulator, whose battery_status would fight the bench's (mavlink_receiver publishes BATTERY_STATUS on
+    the same topic)."""
     params = (rotor_parameters(rotors) if rotors is not None else {}) | px4_parameter_values(scenario.board.params)
-    return params | ({"SIM_BAT_ENABLE": 0} if scenario.battery is not None else {})
+    return params | battery_parameters(scenario) | ({"SIM_BAT_ENABLE": 0} if scenario.battery is not None else {})
 
 
 def param_set_lines(params: dict[str, float | int]) -> str:
