@@ -11,7 +11,6 @@ import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 from pymavlink.dialects.v20 import common
 from pymavlink.dialects.v20.common import (
@@ -27,7 +26,6 @@ from pymavlink.dialects.v20.common import (
 from firmware_interface import hil_codec as codec
 from firmware_interface.board_requests import BoardError, ParamSet, ProtocolMessage, Request
 from firmware_interface.link import Link, Message
-from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.faults import LinkFaults
 
 
@@ -127,7 +125,6 @@ class BoardSession:
         self._truth_ahead: bytes | None = None  # a HIL_STATE_QUATERNION frame for the next step's write
         self._last_heartbeat_sent = -1e9
         self.ground_station_silent = False  # a ground-station loss: the bench's own GCS heartbeat is not sent
-        self._components: dict[int, FrameEncoder] = {}  # other components of the vehicle the bench speaks for
         self._text_chunks: dict[int, list[str]] = {}
         self._last_rx = clock()
         self.link.encoder.component_id = BENCH_COMPONENT_ID
@@ -387,13 +384,6 @@ class BoardSession:
             self.link.send(ask.type, target_system=system, target_component=component, **dict(ask.fields))
         else:
             self.request(ask.command, ask.params)
-
-    def send_as_component(self, component_id: int, message: str, fields: dict[str, Any]) -> None:
-        """A message from another component of the board's own system (a battery: PX4 takes BATTERY_STATUS only from
-        its system and not from the autopilot), numbered in that component's own sequence."""
-        encoder = self._components.setdefault(component_id, FrameEncoder(self.link.encoder.system_id, component_id))
-        encoder.system_id = self.link.encoder.system_id
-        self.link.send_frame(encoder.encode(message_class(message), fields))
 
     def send_setpoint(self, t_boot_ms: int, pos_ned: codec.Vec3, vel_ned: codec.Vec3, acc_ned: codec.Vec3,
                       yaw_rad: float) -> None:

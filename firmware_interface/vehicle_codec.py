@@ -15,6 +15,9 @@ from pymavlink.dialects.v20.common import (
     MAV_COMP_ID_BATTERY,
 )
 
+from firmware_interface.link import Link
+from firmware_interface.link.encoder import FrameEncoder, message_class
+
 BATTERY_COMPONENT_ID = MAV_COMP_ID_BATTERY  # PX4 takes BATTERY_STATUS from any component of its system but its own
 UINT16_MAX, INT16_MAX, INT32_MAX = 0xFFFF, 0x7FFF, 0x7FFFFFFF
 CELLS, EXTENDED_CELLS = 10, 4  # voltages[10] and voltages_ext[4]: cells 1..10 and 11..14
@@ -73,3 +76,15 @@ def manual_control_fields(target_system: int, pitch: float, roll: float, throttl
     return {"target": target_system, "x": axis(pitch), "y": axis(roll), "z": throttle_z, "r": axis(yaw),
             "buttons": 0, "buttons2": 0, "enabled_extensions": 0, "s": 0, "t": 0, "aux1": 0, "aux2": 0, "aux3": 0,
             "aux4": 0, "aux5": 0, "aux6": 0}
+
+
+class ComponentSender:
+    """Frames from another component of the board's own system, sent on the bench's link to it (a battery: PX4
+    takes BATTERY_STATUS only from its own system and not from the autopilot), numbered in its own sequence."""
+
+    def __init__(self, component_id: int) -> None:
+        self.encoder = FrameEncoder(1, component_id)
+
+    def send(self, link: Link, message: str, fields: dict[str, Any]) -> None:
+        self.encoder.system_id = link.encoder.system_id  # the board's, which the link adopted from its heartbeat
+        link.send_frame(self.encoder.encode(message_class(message), fields))

@@ -12,7 +12,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from firmware_interface.board import BoardSession
-from firmware_interface.vehicle_codec import BATTERY_COMPONENT_ID, battery_status_fields, manual_control_fields
+from firmware_interface.vehicle_codec import (
+    BATTERY_COMPONENT_ID,
+    ComponentSender,
+    battery_status_fields,
+    manual_control_fields,
+)
 from hil.scenario.schema import Scenario
 from plant_fmu.state import PlantState
 
@@ -59,6 +64,7 @@ class Senders:
     joystick: Joystick | None = None
     ground_station_loss: list[Window] = field(default_factory=list)
     _lost: dict[str, bool] = field(default_factory=lambda: {"ground station": False, "joystick": False})
+    _battery_component: ComponentSender = field(default_factory=lambda: ComponentSender(BATTERY_COMPONENT_ID))
 
     def ground_station_lost(self, mission_t: float) -> bool:
         return _within(self.ground_station_loss, mission_t)
@@ -72,7 +78,7 @@ class Senders:
             cells = battery.cell_voltages_v.tolist()[:self.cells]
             fields = battery_status_fields(battery.voltage_v, battery.current_a, battery.consumed_c, battery.remaining,
                                            cells)
-            session.send_as_component(BATTERY_COMPONENT_ID, "BATTERY_STATUS", fields)
+            self._battery_component.send(session.link, "BATTERY_STATUS", fields)
             sent.append(("battery", {"voltage_v": battery.voltage_v, "current_a": battery.current_a,
                                      "consumed_c": battery.consumed_c, "remaining": battery.remaining,
                                      "cell_voltages_v": cells}))
