@@ -19,7 +19,7 @@ from firmware_interface.px4_modes import mode_name
 from firmware_interface.vehicle_codec import remaining_percent
 from hil.judge.verdict import Moment, Verdict
 from hil.loop.frame import StepFrame
-from hil.scenario.failsafe import FailsafeExpected, gps_dropouts, parameter
+from hil.scenario.failsafe import FailsafeExpected, gps_dropouts, joystick_losses, parameter
 from hil.scenario.schema import Scenario
 
 ACTION_MODES = {"rtl": "AUTO.RTL", "land": "AUTO.LAND", "hold": "AUTO.LOITER"}
@@ -163,8 +163,8 @@ def failsafe_judge(scenario: Scenario, expected: FailsafeExpected | None) -> Fai
     """The judge of the scenario's failsafe: its trigger's windows, the battery threshold PX4 acts at."""
     after = expected.after if expected is not None else None
     windows: list[tuple[float, float]] = []
-    if after == "manual control lost" and scenario.manual_control is not None:
-        windows = [(w.start_s, w.end_s) for w in scenario.manual_control.loss]
+    if after == "manual control lost":
+        windows = joystick_losses(scenario)
     elif after == "data link lost":
         windows = [(w.start_s, w.end_s) for w in scenario.faults.ground_station]
     elif after == "gps lost":

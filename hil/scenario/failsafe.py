@@ -225,14 +225,24 @@ def _missing_trigger(scenario: Scenario, after: str) -> str | None:
     """Why the scenario cannot show the trigger an expected failsafe follows (None: it can)."""
     if after == "battery low" and scenario.battery is None:
         return "'battery low' needs a battery: section (the bench sends its BATTERY_STATUS); expected one"
-    if after == "manual control lost" and (scenario.manual_control is None or not scenario.manual_control.loss):
-        return "'manual control lost' needs manual_control: with a loss: window; expected one"
+    if after == "manual control lost" and not joystick_losses(scenario):
+        return ("'manual control lost' needs manual_control: with a loss: window (or a ground-station loss, which "
+                "takes the joystick with it); expected one")
     if after == "data link lost" and not scenario.faults.ground_station:
         return "'data link lost' needs faults.ground_station: [{start_s: ...}]; expected one"
     if after == "gps lost" and not gps_dropouts(scenario):
         return ("'gps lost' needs a GPS dropout: faults.sensors: [{sensor: gps, kind: dropout, start_s: ...}]; "
                 "expected one")
     return None
+
+
+def joystick_losses(scenario: Scenario) -> list[tuple[float, float]]:
+    """When the scenario's sticks stop, (start_s, end_s) on the mission clock: their own loss windows and the
+    ground station's (QGroundControl's joystick goes with it)."""
+    if scenario.manual_control is None:
+        return []
+    return sorted([(w.start_s, w.end_s) for w in scenario.manual_control.loss]
+                  + [(w.start_s, w.end_s) for w in scenario.faults.ground_station])
 
 
 def gps_dropouts(scenario: Scenario) -> list[tuple[float, float]]:

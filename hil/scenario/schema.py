@@ -244,7 +244,7 @@ class Expect(Bounds):
     def for_board(self, px4: bool) -> Expect:
         if not px4 or self.px4 is None:
             return self
-        return self.model_copy(update=self.px4.model_dump(exclude_unset=True))
+        return self.model_copy(update={name: getattr(self.px4, name) for name in self.px4.model_fields_set})
 
 
 Loc = tuple[str | int, ...]
