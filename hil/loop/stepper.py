@@ -190,7 +190,7 @@ class Stepper:
         timing.lap("plant")
         readings, gps = world.sensors.step(TrueState(self.t_us, truth.pos_ned, truth.vel_ned, truth.q_wxyz,
                                                      truth.rates_frd, truth.specific_force_frd),
-                                           mission_t if mission_t > -math.inf else None)
+                                           mission_t)  # before the mission (-inf) no sensor fault acts
         for faults in world.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = timing.lap("sensors")
