@@ -11,10 +11,12 @@ import json
 import subprocess
 from pathlib import Path
 
+import jsonschema
 import pytest
 import yaml
 
 from firmware_interface.px4_modes import FlightMode
+from hil.channels import json_schema
 from tests.support.cli_runs import run
 from tests.support.failsafe_logs import event_us, last_sent_us, mission_start_us, mode_us, recorded, tlog_frames
 
@@ -37,13 +39,16 @@ def passed(result: subprocess.CompletedProcess[str]) -> None:
 
 
 def test_battery_rtl_returns_at_the_critical_level_it_was_sent(shipped_flight):
-    """The recording's battery samples come every 0.5 s (2 Hz) and each is in link.tlog as the battery component's
-    BATTERY_STATUS, in mV per cell; the first sent below BAT_CRIT_THR 15 % is the trigger; the emulator holds
+    """The recording's battery samples (valid against their channel's schema) come every 0.5 s (2 Hz) and each is
+    in link.tlog as the battery component's
+    BATTERY_STATUS, in mV per cell; the first sent below BAT_CRIT_THR 14.5 % is the trigger; the emulator holds
     COM_FAIL_ACT_T (5 s) and returns, landing within 2 m of home."""
     result, run_dir = shipped_flight(SCENARIOS / "battery_rtl.yaml")
     passed(result)
     figures = verdict(run_dir)
     samples = recorded(run_dir, "battery")
+    for sample in samples:
+        jsonschema.validate(sample, json.loads(json_schema("battery")))
     assert {b["t_us"] - a["t_us"] for a, b in itertools.pairwise(samples[1:])} == {500_000}
     sent = [f for f in tlog_frames(run_dir) if f.kind == "BATTERY_STATUS"]
     assert len(sent) == len(samples)
@@ -51,7 +56,7 @@ def test_battery_rtl_returns_at_the_critical_level_it_was_sent(shipped_flight):
         assert frame.message.get_srcComponent() == 180
         assert list(frame.message.voltages[:4]) == [round(v * 1000) for v in sample["cell_voltages_v"]]
     start = mission_start_us(run_dir)
-    trigger = next(s for s in samples if round(s["remaining"] * 100) < 15)
+    trigger = next(s for s in samples if round(s["remaining"] * 100) < 14.5)
     assert figures["trigger_at_mission_s"] == pytest.approx((trigger["t_us"] - start) * 1e-6)
     low = event_us(run_dir, "board: Low battery level", after_us=trigger["t_us"] - 1)  # critical (low: 20 %)
     assert trigger["t_us"] <= low <= trigger["t_us"] + TICK_S * 1e6
@@ -85,12 +90,14 @@ def test_manual_control_loss_after_sticks_at_25_hz(shipped_flight):
     result, run_dir = shipped_flight(SCENARIOS / "manual_control_loss.yaml")
     passed(result)
     sticks = recorded(run_dir, "manual_control")
+    for sample in sticks:
+        jsonschema.validate(sample, json.loads(json_schema("manual_control")))
     frames = [f for f in tlog_frames(run_dir) if f.kind == "MANUAL_CONTROL"]
     assert len(frames) == len(sticks)
     for frame, sample in zip(frames, sticks, strict=True):
         assert frame.message.z == round((sample["throttle"] + 1) * 500) and frame.message.x == round(
             sample["pitch"] * 1000)
-    lost_us = mission_start_us(run_dir) + 15_000_000
+    lost_us = mission_start_us(run_dir) + 17_000_000
     assert {b["t_us"] - a["t_us"] for a, b in itertools.pairwise(sticks[1:])} == {40_000}
     last = sticks[-1]["t_us"]
     assert lost_us - 40_000 <= last < lost_us
