@@ -59,6 +59,9 @@ class Joystick:
 
 @dataclass
 class Senders:
+    """The step's other senders: the battery's BATTERY_STATUS and the joystick's MANUAL_CONTROL at their rates, and
+    the windows in which the ground station is lost (its joystick with it)."""
+
     battery: Periodic | None = None  # BATTERY_STATUS, when the scenario has a battery: section
     cells: int | None = None  # the pack's cells (our FMU gives 14 cell voltages, 0 beyond them); None: all given
     joystick: Joystick | None = None
@@ -72,29 +75,34 @@ class Senders:
     def send(self, session: BoardSession, t_us: int, mission_t: float, truth: PlantState,
              notes: Callable[[str], None]) -> list[tuple[str, dict[str, Any]]]:
         """This step's messages on the command link; returns their channel payloads (SI, as sent)."""
-        sent: list[tuple[str, dict[str, Any]]] = []
-        battery = truth.battery
-        if self.battery is not None and battery is not None and self.battery.due(t_us):
-            cells = battery.cell_voltages_v.tolist()[:self.cells]
-            fields = battery_status_fields(battery.voltage_v, battery.current_a, battery.consumed_c, battery.remaining,
-                                           cells)
-            self._battery_component.send(session.link, "BATTERY_STATUS", fields)
-            sent.append(("battery", {"voltage_v": battery.voltage_v, "current_a": battery.current_a,
-                                     "consumed_c": battery.consumed_c, "remaining": battery.remaining,
-                                     "cell_voltages_v": cells}))
+        sent = self._battery_status(session, t_us, truth)
         gcs_lost = self.ground_station_lost(mission_t)
         self._note("ground station", gcs_lost, notes, "its heartbeats, commands, joystick and relayed traffic stop")
-        joystick = self.joystick
-        if joystick is None:
-            return sent
-        stick_lost = gcs_lost or _within(joystick.loss, mission_t)
-        self._note("joystick", stick_lost, notes, "no MANUAL_CONTROL")
-        if joystick.schedule.due(t_us) and not stick_lost:
-            sticks = joystick.sticks(mission_t)
-            info = session.report.info
-            session.link.send_fields("MANUAL_CONTROL", manual_control_fields(info.system_id if info else 1, *sticks))
-            sent.append(("manual_control", dict(zip(("pitch", "roll", "throttle", "yaw"), sticks, strict=True))))
+        if self.joystick is not None:
+            stick_lost = gcs_lost or _within(self.joystick.loss, mission_t)
+            self._note("joystick", stick_lost, notes, "no MANUAL_CONTROL")
+            if self.joystick.schedule.due(t_us) and not stick_lost:
+                sent += self._sticks(session, self.joystick.sticks(mission_t))
         return sent
+
+    def _battery_status(self, session: BoardSession, t_us: int,
+                        truth: PlantState) -> list[tuple[str, dict[str, Any]]]:
+        battery = truth.battery
+        if self.battery is None or battery is None or not self.battery.due(t_us):
+            return []
+        cells = battery.cell_voltages_v.tolist()[:self.cells]
+        fields = battery_status_fields(battery.voltage_v, battery.current_a, battery.consumed_c, battery.remaining,
+                                       cells)
+        self._battery_component.send(session.link, "BATTERY_STATUS", fields)
+        return [("battery", {"voltage_v": battery.voltage_v, "current_a": battery.current_a,
+                             "consumed_c": battery.consumed_c, "remaining": battery.remaining,
+                             "cell_voltages_v": cells})]
+
+    @staticmethod
+    def _sticks(session: BoardSession, sticks: Sticks) -> list[tuple[str, dict[str, Any]]]:
+        info = session.report.info
+        session.link.send_fields("MANUAL_CONTROL", manual_control_fields(info.system_id if info else 1, *sticks))
+        return [("manual_control", dict(zip(("pitch", "roll", "throttle", "yaw"), sticks, strict=True)))]
 
     def _note(self, what: str, lost: bool, notes: Callable[[str], None], effect: str) -> None:
         if lost != self._lost[what]:

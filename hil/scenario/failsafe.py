@@ -28,7 +28,6 @@ if TYPE_CHECKING:
 STICKS = ("pitch", "roll", "throttle", "yaw")
 STICK_SAMPLES = 2001  # a stick expression is checked at this many evenly spaced times over the mission ...
 STICK_SAMPLE_S = 0.1  # ... or every 0.1 s when the mission is shorter
-TRIGGERS = ("battery low", "manual control lost", "data link lost", "gps lost")
 Trigger = Literal["battery low", "manual control lost", "data link lost", "gps lost"]
 Action = Literal["rtl", "land", "hold", "none"]
 Loc = tuple[str | int, ...]
