@@ -2,13 +2,16 @@
 of their own), checked against what the bench sent and the board answered on the wire (link.tlog, read with
 pymavlink) and against PX4's parameters: each trigger when the bench made it, each reaction within the time the
 parameters imply, and the battery, sticks and ground station as sent. And a scenario that expects the wrong action
-fails, saying what the board did instead."""
+fails, saying what the board did instead, its battery published on Zenoh."""
 
 from __future__ import annotations
 
 import itertools
 import json
+import signal
 import subprocess
+import sys
+import time
 from pathlib import Path
 
 import jsonschema
@@ -19,6 +22,7 @@ from firmware_interface.px4_modes import FlightMode
 from hil.channels import json_schema
 from tests.support.cli_runs import run
 from tests.support.failsafe_logs import event_us, last_sent_us, mission_start_us, mode_us, recorded, tlog_frames
+from tests.support.ports import free_port, wait_listening
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parent.parent
@@ -122,15 +126,25 @@ def test_gps_loss_descends_blind_after_ekf2_noaid_tout(shipped_flight):
     assert figures["reaction"] == "AUTO.LAND" and figures["landed_at_mission_s"] is not None
 
 
-def test_a_wrong_action_fails_with_what_the_board_did_instead(tmp_path):
-    """gps_short expecting a return: exit 1, and the summary's line says the board descended instead."""
-    scenario = yaml.safe_load((ROOT / "tests" / "data" / "failsafes" / "gps_short.yaml").read_text())
-    scenario["expect"]["failsafe"]["action"] = "rtl"
-    path = tmp_path / "gps_wrong.yaml"
+def test_a_wrong_action_fails_with_what_the_board_did_instead_and_the_battery_is_on_zenoh(tmp_path):
+    """battery_short expecting a landing: exit 1, and the summary's line says the board returned instead. A Zenoh
+    subscriber in another process (`hil echo`) gets the battery channel: every sample the recording has."""
+    scenario = yaml.safe_load((ROOT / "tests" / "data" / "failsafes" / "battery_short.yaml").read_text())
+    scenario["expect"]["failsafe"] = {"after": "battery low", "action": "land", "within_s": 8}
+    path = tmp_path / "battery_wrong.yaml"
     path.write_text(yaml.safe_dump(scenario))
-    result, run_dir = run(path, tmp_path / "runs", "--no-gcs", "--no-report", "--no-telemetry")
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with open(tmp_path / "echo.jsonl", "wb") as sink:
+        echo = subprocess.Popen([sys.executable, "-m", "hil", "echo", "hil/*/battery", "--zenoh-listen", endpoint],
+                                stdout=sink, stderr=subprocess.DEVNULL, cwd=ROOT)
+        wait_listening(int(endpoint.rsplit(":", 1)[1]))
+        result, run_dir = run(path, tmp_path / "runs", "--no-gcs", "--no-report", "--zenoh-connect", endpoint)
+        time.sleep(1.0)
+        echo.send_signal(signal.SIGINT)
+        assert echo.wait(10) == 0
     assert result.returncode == 1, result.stdout + result.stderr
     summary = " ".join((run_dir / "summary.txt").read_text().split())
-    assert "expectations: NOT met" in summary
-    assert "- failsafe: gps lost at mission time 3.00 s, AUTO.LAND" in summary
-    assert "instead of AUTO.RTL (expected rtl within 7 s of gps lost)" in summary
+    assert "expectations: NOT met" in summary and "- failsafe: battery low at mission time" in summary
+    assert "instead of AUTO.LAND (expected land within 8 s of battery low)" in summary
+    published = [json.loads(line)["sample"] for line in (tmp_path / "echo.jsonl").read_text().splitlines()]
+    assert published and published == recorded(run_dir, "battery")[-len(published):]
