@@ -11,6 +11,7 @@ from firmware_interface.emulator.config import EstimatorSettings, NominalVehicle
 from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.emulator.telemetry import collective_fraction, vehicle_type
 from firmware_interface.hil_codec import GpsFix, SensorReadings
 
 VEHICLE = NominalVehicle()  # 1 kg, arm 0.25 m, 5 N rotors, k = 0.5, k_m = 0.016
@@ -69,6 +70,13 @@ def test_a_hexa_allocates_each_torque_exactly_to_the_right_rotors(torque, more):
              sum(xi * t for xi, t in zip(x, thrusts, strict=True)),
              sum(0.016 * c * t for c, t in zip(ccw, thrusts, strict=True)))
     assert given == pytest.approx((9.80665, *torque), abs=1e-12)
+
+
+def test_a_hexa_says_so_in_its_heartbeat_and_its_throttle_counts_six_rotors():
+    """MAVLink's MAV_TYPE: 2 quadrotor, 13 hexarotor, 14 octorotor. A hover's collective (9.80665 N) out of six
+    rotors of 5 N each is 32.7 % throttle (out of four it would read 49 %)."""
+    assert (vehicle_type(4), vehicle_type(6), vehicle_type(8)) == (2, 13, 14)
+    assert collective_fraction(9.80665, HEXA_VEHICLE) == pytest.approx(9.80665 / 30)
 
 
 def test_a_quad_x_given_by_azimuths_mixes_bit_for_bit_as_the_closed_form():

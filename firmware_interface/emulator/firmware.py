@@ -1,7 +1,7 @@
 """The emulated flight controller: PX4's HIL protocol on one side, the paper's controllers inside, and to a
 ground station what PX4 answers it (modes, commands, missions, parameters, telemetry).
 
-Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, quadrotor, HIL_ENABLED), takes
+Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, its multirotor type, HIL_ENABLED), takes
 HIL_SENSOR / HIL_GPS (and, as truth when configured, ODOMETRY in the local frame at float precision, or
 PX4 SITL's HIL_STATE_QUATERNION, whose integer lat/lon, mm and cm/s quantise it) and answers each
 HIL_SENSOR with exactly one HIL_ACTUATOR_CONTROLS (lockstep flag set, time_usec echoed, as PX4 SITL does).

@@ -29,6 +29,8 @@ from pymavlink.dialects.v20.common import (
     MAV_SYS_STATUS_SENSOR_BATTERY,
     MAV_SYS_STATUS_SENSOR_GPS,
     MAV_SYS_STATUS_SENSOR_RC_RECEIVER,
+    MAV_TYPE_HEXAROTOR,
+    MAV_TYPE_OCTOROTOR,
     MAV_TYPE_QUADROTOR,
 )
 
@@ -39,6 +41,7 @@ from firmware_interface.emulator.control.registry import DEBUG_NAME_LENGTH, wire
 from firmware_interface.emulator.geometry import euler_to_quat
 
 if TYPE_CHECKING:
+    from firmware_interface.emulator.config import NominalVehicle
     from firmware_interface.emulator.firmware import EmulatedBoard
 
 HEARTBEAT_PERIOD_US = 1_000_000
@@ -48,6 +51,16 @@ SENSORS = (MAV_SYS_STATUS_SENSOR_3D_GYRO | MAV_SYS_STATUS_SENSOR_3D_ACCEL | MAV_
            | MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE)
 SENSOR_TIMEOUT_US = 1_000_000  # data older than this: the sensor counts as failed
 GPS_TIMEOUT_US = 1_000_000
+
+
+def vehicle_type(rotor_count: int) -> int:
+    """HEARTBEAT's MAV_TYPE for a multirotor of this many rotors, as PX4 reports its airframe (MAV_TYPE param)."""
+    return {6: MAV_TYPE_HEXAROTOR, 8: MAV_TYPE_OCTOROTOR}.get(rotor_count, MAV_TYPE_QUADROTOR)
+
+
+def collective_fraction(thrust_n: float, vehicle: NominalVehicle) -> float:
+    """The collective thrust as a share of what all the vehicle's rotors give at full command, in [0, 1]."""
+    return min(max(thrust_n / (len(vehicle.rotors) * vehicle.thrust_max), 0.0), 1.0)
 
 
 @dataclass
@@ -96,8 +109,8 @@ class Telemetry:
             status = MAV_STATE_CRITICAL if board.failsafes.active else MAV_STATE_ACTIVE
         else:
             status = MAV_STATE_STANDBY if board.settled() else MAV_STATE_BOOT
-        board.link.send("HEARTBEAT", type=MAV_TYPE_QUADROTOR, autopilot=MAV_AUTOPILOT_PX4, base_mode=base_mode,
-                        custom_mode=int(mode), system_status=status, mavlink_version=3)
+        board.link.send("HEARTBEAT", type=vehicle_type(len(board.config.vehicle.rotors)), autopilot=MAV_AUTOPILOT_PX4,
+                        base_mode=base_mode, custom_mode=int(mode), system_status=status, mavlink_version=3)
 
     def _attitude_and_position(self, t_us: int, state: VehicleState) -> None:
         board = self.board
@@ -126,7 +139,7 @@ class Telemetry:
             return
         boot_ms = (t_us - (board.boot_us or t_us)) // 1000
         q_cmd = euler_to_quat(*(float(a) for a in out.eta_cmd))
-        thrust = min(max(out.thrust_n / (4 * board.config.vehicle.thrust_max), 0.0), 1.0)
+        thrust = collective_fraction(out.thrust_n, board.config.vehicle)
         board.link.send("ATTITUDE_TARGET", time_boot_ms=boot_ms, type_mask=0, q=[float(c) for c in q_cmd],
                         body_roll_rate=0.0, body_pitch_rate=0.0, body_yaw_rate=0.0, thrust=thrust)
         controller = board.controller
@@ -193,7 +206,7 @@ class Telemetry:
         altitude = origin.alt0_m - float(state.pos_ned[2]) if origin is not None else -float(state.pos_ned[2])
         out = board.last_control
         throttle = 0 if out is None or not board.armed else round(
-            100 * min(max(out.thrust_n / (4 * board.config.vehicle.thrust_max), 0.0), 1.0))
+            100 * collective_fraction(out.thrust_n, board.config.vehicle))
         board.link.send("VFR_HUD", airspeed=speed, groundspeed=speed, alt=altitude, climb=-float(vel[2]),
                         heading=round(math.degrees(float(state.eta[2])) % 360), throttle=throttle)
 
