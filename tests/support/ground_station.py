@@ -55,11 +55,15 @@ class GroundStation:
         return self.heartbeats >= count
 
     def read_param(self, name: str, timeout_s: float = 10.0) -> float | None:
+        """The parameter's value, asked again every second; another client's PARAM_VALUEs (a relay sends PX4's
+        answers to every ground station) are passed over, not taken for a lost answer."""
         for _ in range(int(timeout_s)):
             self.link.mav.param_request_read_send(self.vehicle, 1, name.encode(), -1)
-            message = self._receive(["PARAM_VALUE"], 1.0)
-            if message is not None and message.param_id == name:
-                return float(message.param_value)
+            asked = time.monotonic()
+            while (left_s := 1.0 - (time.monotonic() - asked)) > 0:
+                message = self._receive(["PARAM_VALUE"], left_s)
+                if message is not None and message.param_id == name:
+                    return float(message.param_value)
         return None
 
     def download_mission(self, timeout_s: float = 20.0) -> list[DownloadedItem] | None:
