@@ -16,6 +16,7 @@ $(STAMP): pyproject.toml
 fmu: $(STAMP)
 	$(BIN)/hil fmu build
 	$(BIN)/python -m firmware_interface.emulator.warm_up
+	$(BIN)/python -m hil.loop.step_frames
 
 run: fmu
 	$(BIN)/hil run scenarios/gust.yaml

@@ -20,11 +20,11 @@ from pymavlink.dialects.v20 import common
 from run_timing import benchmark_parser
 
 from firmware_interface import hil_codec as codec
+from firmware_interface import hil_frames
 from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.board_waits import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
-from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.transports import UdpTransport
 from firmware_interface.px4_modes import FlightMode
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
@@ -37,14 +37,16 @@ FRAMES, QUICK_FRAMES = 3000, SETTLE + 50
 
 def sensor_frames(n: int) -> list[tuple[bytes, bytes | None]]:
     suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
-    encoder = FrameEncoder(1, 51)
+    buffer = np.zeros(512, dtype=np.uint8)
     frames = []
     for k in range(n):
         truth = TrueState(4000 * (k + 1), np.zeros(3), np.zeros(3), np.array([1.0, 0, 0, 0]), np.zeros(3),
                           np.array([0.0, 0.0, -G]))
-        readings, gps = suite.step(truth)
-        gps_frame = encoder.encode(message_class("HIL_GPS"), codec.hil_gps_fields(gps)) if gps else None
-        frames.append((encoder.encode(message_class("HIL_SENSOR"), codec.hil_sensor_fields(readings)), gps_frame))
+        row = codec.sensor_row(*suite.step(truth))
+        gps_frame = None
+        if row[hil_frames.ROW_PRESENT] & hil_frames.HAS_GPS:
+            gps_frame = buffer[:hil_frames.encode_hil_gps(buffer, 2 * k, 1, 51, row)].tobytes()
+        frames.append((buffer[:hil_frames.encode_hil_sensor(buffer, 2 * k + 1, 1, 51, row)].tobytes(), gps_frame))
     return frames
 
 

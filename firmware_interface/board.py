@@ -12,18 +12,18 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
 from pymavlink.dialects.v20 import common
 from pymavlink.dialects.v20.common import (
     MAV_AUTOPILOT_INVALID,
     MAV_CMD_SET_MESSAGE_INTERVAL,
-    MAV_FRAME_LOCAL_NED,
     MAV_PARAM_TYPE_INT32,
     MAV_PARAM_TYPE_REAL32,
     MAV_TYPE_GCS,
-    POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE,
 )
 
 from firmware_interface import hil_codec as codec
+from firmware_interface import hil_frames as frames
 from firmware_interface.board_requests import BoardError, ParamSet, ProtocolMessage, Request
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
@@ -41,7 +41,6 @@ def float_as_int32(wire: float) -> int:
 
 
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
-SETPOINT_IGNORE_YAW_RATE = POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # type_mask: use pos, vel, acc, yaw
 STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
 # the mission protocol as a ground station takes part in it, and the mission's progress
@@ -277,11 +276,12 @@ class BoardSession:
     # --- sensors and actuators ----------------------------------------------------
     def send_sensors(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                      truth: codec.GroundTruth | codec.LocalTruth | None = None) -> None:
+        row = codec.sensor_row(readings, gps)
         if gps is not None:
-            self.link.send_fields("HIL_GPS", codec.hil_gps_fields(gps))
+            self.link.send_frame(self.link.pack(frames.encode_hil_gps, row))
         if truth is not None:
             self.send_ground_truth(truth)
-        self.link.send_fields("HIL_SENSOR", codec.hil_sensor_fields(readings))
+        self.link.send_frame(self.link.pack(frames.encode_hil_sensor, row))
 
     def send_ground_truth(self, truth: codec.GroundTruth | codec.LocalTruth) -> bool:
         """HIL_STATE_QUATERNION (a GroundTruth, what PX4 SITL reads) or ODOMETRY (a LocalTruth, float precision,
@@ -289,11 +289,16 @@ class BoardSession:
         EKF2)."""
         if not self.policy.takes_ground_truth:
             return False
-        if isinstance(truth, codec.LocalTruth):
-            self.link.send_fields("ODOMETRY", codec.odometry_fields(truth))
-        else:
-            self.link.send_fields("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
+        self.link.send_frame(self._truth_frame(truth))
         return True
+
+    def _truth_frame(self, truth: codec.GroundTruth | codec.LocalTruth) -> bytes:
+        if isinstance(truth, codec.LocalTruth):
+            return self.link.pack(frames.encode_odometry, truth.t_us, np.array(truth.pos_ned), np.array(truth.vel_ned),
+                                  np.array(truth.q_wxyz), np.array(truth.rates_frd))
+        return self.link.pack(frames.encode_hil_state_quaternion, truth.t_us, np.array(truth.q_wxyz),
+                              np.array(truth.rates_frd), np.array((truth.lat_deg, truth.lon_deg, truth.alt_msl_m)),
+                              np.array(truth.vel_ned), np.array(truth.specific_force_frd), truth.airspeed_m_s)
 
     def send_ground_truth_ahead(self, truth: codec.GroundTruth) -> None:
         """HIL_STATE_QUATERNION for PX4 SITL, built now (while the board computes) and written first in the next
@@ -301,7 +306,7 @@ class BoardSession:
         reads it: ahead of the next HIL_SENSOR that clock is still this truth's time; in the same write as this
         step's HIL_SENSOR it was read a step early. Never for a real board, as `send_ground_truth`."""
         if self.policy.takes_ground_truth:
-            self._truth_ahead = self.link.encode("HIL_STATE_QUATERNION", codec.hil_state_quaternion_fields(truth))
+            self._truth_ahead = self._truth_frame(truth)
 
     def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                  truth: codec.GroundTruth | codec.LocalTruth | None = None) -> codec.ActuatorOutputs | None:
@@ -312,12 +317,17 @@ class BoardSession:
     def send_step(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                   truth: codec.GroundTruth | codec.LocalTruth | None = None) -> None:
         """Send this step's sensors; the reply to wait for is the one echoing `readings.t_us`."""
+        self.begin_step(readings.t_us)
+        self.send_sensors(readings, gps, truth)
+
+    def begin_step(self, t_us: int) -> None:
+        """What goes ahead of the sensor frames of the step at `t_us` (the truth built during the last step, our
+        heartbeat when due); the reply to wait for is the one echoing `t_us`."""
         if self._truth_ahead is not None:  # first: it was numbered before anything else in this write
             self.link.send_frame(self._truth_ahead)
             self._truth_ahead = None
-        self.service(readings.t_us * 1e-6 if self.lockstep else None)
-        self.send_sensors(readings, gps, truth)
-        self._awaited_t_us = readings.t_us
+        self.service(t_us * 1e-6 if self.lockstep else None)
+        self._awaited_t_us = t_us
 
     @property
     def waits_for_replies(self) -> bool:
@@ -352,13 +362,13 @@ class BoardSession:
         return self.actuators
 
     # --- commands -----------------------------------------------------------------
-    def _target(self) -> tuple[int, int]:
+    def target(self) -> tuple[int, int]:
         info = self.report.info
         return (info.system_id, info.component_id) if info else (1, 1)
 
     def request(self, command: int, params: tuple[float, ...] = ()) -> None:
         """Send a COMMAND_LONG without waiting; its COMMAND_ACK lands in `report.acks` when it comes."""
-        system, component = self._target()
+        system, component = self.target()
         p = tuple(params) + (0.0,) * (7 - len(params))
         self.report.acks.pop(command, None)
         self.link.send("COMMAND_LONG", target_system=system, target_component=component, command=command,
@@ -368,7 +378,7 @@ class BoardSession:
     def set_param(self, name: str, value: float) -> None:
         """PARAM_SET without waiting: REAL32, or INT32 when `value` is a Python int (PX4 refuses a type that is not
         the parameter's); PX4 answers with PARAM_VALUE (see `report.params`)."""
-        system, component = self._target()
+        system, component = self.target()
         self.report.params.pop(name, None)
         wire, kind = (int32_as_float(value), MAV_PARAM_TYPE_INT32) if isinstance(value, int) else (
             float(value), MAV_PARAM_TYPE_REAL32)
@@ -380,16 +390,14 @@ class BoardSession:
         if isinstance(ask, ParamSet):
             self.set_param(ask.name, ask.value)
         elif isinstance(ask, ProtocolMessage):
-            system, component = self._target()
+            system, component = self.target()
             self.link.send(ask.type, target_system=system, target_component=component, **dict(ask.fields))
         else:
             self.request(ask.command, ask.params)
 
-    def send_setpoint(self, t_boot_ms: int, pos_ned: codec.Vec3, vel_ned: codec.Vec3, acc_ned: codec.Vec3,
-                      yaw_rad: float) -> None:
-        system, component = self._target()
-        self.link.send("SET_POSITION_TARGET_LOCAL_NED", time_boot_ms=t_boot_ms & 0xFFFFFFFF,
-                       target_system=system, target_component=component, coordinate_frame=MAV_FRAME_LOCAL_NED,
-                       type_mask=SETPOINT_IGNORE_YAW_RATE, x=pos_ned[0], y=pos_ned[1], z=pos_ned[2],
-                       vx=vel_ned[0], vy=vel_ned[1], vz=vel_ned[2], afx=acc_ned[0], afy=acc_ned[1],
-                       afz=acc_ned[2], yaw=yaw_rad, yaw_rate=0.0)
+    def send_setpoint(self, t_boot_ms: int, pos_ned: np.ndarray | codec.Vec3, vel_ned: np.ndarray | codec.Vec3,
+                      acc_ned: np.ndarray | codec.Vec3, yaw_rad: float) -> None:
+        """SET_POSITION_TARGET_LOCAL_NED: position, velocity, acceleration and yaw in the board's local NED."""
+        vectors = (np.asarray(v, dtype=np.float64) for v in (pos_ned, vel_ned, acc_ned))
+        self.link.send_frame(self.link.pack(frames.encode_setpoint, t_boot_ms & 0xFFFFFFFF, *self.target(),
+                                            *vectors, float(yaw_rad)))

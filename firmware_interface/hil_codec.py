@@ -1,9 +1,6 @@
-"""SI / NED / FRD values ⇄ the fields of PX4's HIL messages.
-
-The only place where MAVLink units exist (docs/px4_protocol.md §3–7): pressure in hPa,
-magnetic field in gauss, lat/lon in degE7, altitude in mm, velocities in cm/s, course
-in cdeg, eph/epv as accuracy in cm (what PX4 reads, whatever the XML says).
-Functions return field dicts for `Link.send_fields` or read pymavlink messages.
+"""SI / NED / FRD values ⇄ PX4's HIL messages, as Python objects: a step's sensor values (`SensorReadings`, a
+`GpsFix`) to and from the float64 row `firmware_interface.hil_frames` packs into frames, and what a board sends
+read from pymavlink messages (MAVLink units to SI here: docs/px4_protocol.md §3–7).
 """
 
 from __future__ import annotations
@@ -12,17 +9,41 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-# HIL_SENSOR.fields_updated groups: PX4 ingests a group only if every bit of it is set.
-ACCEL_BITS, GYRO_BITS, MAG_BITS = 0x007, 0x038, 0x1C0
-BARO_BITS = 0x200 | 0x800 | 0x1000  # abs_pressure, pressure_alt, temperature
-DIFF_PRESSURE_BITS = 0x400
+import numpy as np
+
+from firmware_interface.hil_frames import (
+    ACCEL_BITS,
+    BARO_BITS,
+    DIFF_PRESSURE_BITS,
+    GYRO_BITS,
+    HAS_ACCEL,
+    HAS_BARO,
+    HAS_GPS,
+    HAS_GYRO,
+    HAS_MAG,
+    MAG_BITS,
+    PA_PER_HPA,
+    ROW_ACCEL,
+    ROW_ALT_MSL_M,
+    ROW_BARO,
+    ROW_EPH_M,
+    ROW_EPV_M,
+    ROW_FIX_TYPE,
+    ROW_GPS_T_US,
+    ROW_GPS_VEL_NED,
+    ROW_GYRO,
+    ROW_LAT_DEG,
+    ROW_LON_DEG,
+    ROW_MAG_T,
+    ROW_PRESENT,
+    ROW_SATELLITES,
+    ROW_SIZE,
+    ROW_T_US,
+    TESLA_PER_GAUSS,
+)
 
 MODE_FLAG_CUSTOM, MODE_FLAG_HIL, MODE_FLAG_ARMED = 1, 32, 128
 ACTUATOR_FLAG_LOCKSTEP = 1
-
-TESLA_PER_GAUSS = 1e-4
-PA_PER_HPA = 100.0
-UINT16_MAX, INT16_MAX = 65535, 32767
 
 Vec3 = tuple[float, float, float]
 
@@ -101,37 +122,50 @@ class ActuatorOutputs:
     flags: int
 
 
-def _clamp_int(value: float, low: int, high: int) -> int:
-    return max(low, min(high, round(value)))
+def sensor_row(readings: SensorReadings, gps: GpsFix | None = None) -> np.ndarray:
+    """The step's row (`hil_frames.ROW_*`) of these readings and fix."""
+    row = np.zeros(ROW_SIZE)
+    row[ROW_T_US] = readings.t_us
+    present = 0
+    for group, first, values in ((HAS_ACCEL, ROW_ACCEL, readings.accel_frd), (HAS_GYRO, ROW_GYRO, readings.gyro_frd),
+                                 (HAS_MAG, ROW_MAG_T, readings.mag_frd_t)):
+        if values is not None:
+            row[first:first + 3] = values
+            present |= group
+    if readings.baro is not None:
+        b = readings.baro
+        row[ROW_BARO:ROW_BARO + 3] = (b.pressure_pa, b.temperature_degc, b.pressure_alt_m)
+        present |= HAS_BARO
+    if gps is not None:
+        row[ROW_GPS_T_US:ROW_ALT_MSL_M + 1] = (gps.t_us, gps.lat_deg, gps.lon_deg, gps.alt_msl_m)
+        row[ROW_GPS_VEL_NED:ROW_GPS_VEL_NED + 3] = gps.vel_ned
+        row[ROW_EPH_M:ROW_SATELLITES + 1] = (gps.eph_m, gps.epv_m, gps.fix_type, gps.satellites)
+        present |= HAS_GPS
+    row[ROW_PRESENT] = present
+    return row
 
 
-def hil_sensor_fields(r: SensorReadings) -> dict[str, Any]:
-    accel = r.accel_frd or (0.0, 0.0, 0.0)
-    gyro = r.gyro_frd or (0.0, 0.0, 0.0)
-    mag_g = tuple(b / TESLA_PER_GAUSS for b in r.mag_frd_t) if r.mag_frd_t else (0.0, 0.0, 0.0)
-    updated = 0
-    updated |= ACCEL_BITS if r.accel_frd else 0
-    updated |= GYRO_BITS if r.gyro_frd else 0
-    updated |= MAG_BITS if r.mag_frd_t else 0
-    updated |= BARO_BITS if r.baro else 0
-    updated |= DIFF_PRESSURE_BITS if r.diff_pressure_pa is not None else 0
-    baro = r.baro
-    return {
-        "time_usec": r.t_us,
-        "xacc": accel[0], "yacc": accel[1], "zacc": accel[2],
-        "xgyro": gyro[0], "ygyro": gyro[1], "zgyro": gyro[2],
-        "xmag": mag_g[0], "ymag": mag_g[1], "zmag": mag_g[2],
-        "abs_pressure": baro.pressure_pa / PA_PER_HPA if baro else 0.0,
-        "diff_pressure": (r.diff_pressure_pa or 0.0) / PA_PER_HPA,
-        "pressure_alt": baro.pressure_alt_m if baro else 0.0,
-        "temperature": baro.temperature_degc if baro else 0.0,
-        "fields_updated": updated,
-        "id": r.sensor_id,
-    }
+def readings_of_row(row: np.ndarray) -> tuple[SensorReadings, GpsFix | None]:
+    """The inverse of `sensor_row`: the step's readings and, if it has one, the fix delivered."""
+    values = row.tolist()
+    present = int(values[ROW_PRESENT])
+
+    def group(bit: int, first: int) -> Vec3 | None:
+        return (values[first], values[first + 1], values[first + 2]) if present & bit else None
+
+    baro = Baro(values[ROW_BARO], values[ROW_BARO + 1], values[ROW_BARO + 2]) if present & HAS_BARO else None
+    readings = SensorReadings(int(values[ROW_T_US]), group(HAS_ACCEL, ROW_ACCEL), group(HAS_GYRO, ROW_GYRO),
+                              group(HAS_MAG, ROW_MAG_T), baro)
+    if not present & HAS_GPS:
+        return readings, None
+    gps = GpsFix(int(values[ROW_GPS_T_US]), values[ROW_LAT_DEG], values[ROW_LON_DEG], values[ROW_ALT_MSL_M],
+                 group(HAS_GPS, ROW_GPS_VEL_NED) or (0.0, 0.0, 0.0), values[ROW_EPH_M], values[ROW_EPV_M],
+                 int(values[ROW_FIX_TYPE]), int(values[ROW_SATELLITES]))
+    return readings, gps
 
 
 def read_hil_sensor(msg: Any) -> SensorReadings:
-    """The inverse of `hil_sensor_fields`: groups whose bits are incomplete are absent, as in PX4."""
+    """HIL_SENSOR's readings: groups whose bits are incomplete are absent, as in PX4."""
     updated = msg.fields_updated
 
     def has(bits: int) -> bool:
@@ -146,29 +180,6 @@ def read_hil_sensor(msg: Any) -> SensorReadings:
         diff_pressure_pa=msg.diff_pressure * PA_PER_HPA if has(DIFF_PRESSURE_BITS) else None,
         sensor_id=msg.id,
     )
-
-
-def hil_gps_fields(g: GpsFix) -> dict[str, Any]:
-    vn, ve, vd = g.vel_ned
-    ground_speed = math.hypot(vn, ve)
-    course_deg = math.degrees(math.atan2(ve, vn)) % 360.0
-    return {
-        "time_usec": g.t_us,
-        "fix_type": g.fix_type,
-        "lat": _clamp_int(g.lat_deg * 1e7, -900_000_000, 900_000_000),
-        "lon": _clamp_int(g.lon_deg * 1e7, -1_800_000_000, 1_800_000_000),
-        "alt": _clamp_int(g.alt_msl_m * 1000.0, -(2**31), 2**31 - 1),
-        "eph": _clamp_int(g.eph_m * 100.0, 0, UINT16_MAX - 1),
-        "epv": _clamp_int(g.epv_m * 100.0, 0, UINT16_MAX - 1),
-        "vel": _clamp_int(ground_speed * 100.0, 0, UINT16_MAX - 1),
-        "vn": _clamp_int(vn * 100.0, -INT16_MAX, INT16_MAX),
-        "ve": _clamp_int(ve * 100.0, -INT16_MAX, INT16_MAX),
-        "vd": _clamp_int(vd * 100.0, -INT16_MAX, INT16_MAX),
-        "cog": _clamp_int(course_deg * 100.0, 0, 35999) if round(course_deg * 100) < 36000 else 0,
-        "satellites_visible": g.satellites,
-        "id": g.gps_id,
-        "yaw": 0,  # PX4 ignores HIL_GPS.yaw
-    }
 
 
 def read_hil_gps(msg: Any) -> GpsFix:
@@ -186,26 +197,6 @@ def read_hil_gps(msg: Any) -> GpsFix:
     )
 
 
-def hil_state_quaternion_fields(s: GroundTruth) -> dict[str, Any]:
-    # x/y/zacc: the XML says mG, but jMAVSim and Gazebo send m/s^2 x 1000 and PX4 SITL divides by 1000.
-    return {
-        "time_usec": s.t_us,
-        "attitude_quaternion": list(s.q_wxyz),
-        "rollspeed": s.rates_frd[0], "pitchspeed": s.rates_frd[1], "yawspeed": s.rates_frd[2],
-        "lat": _clamp_int(s.lat_deg * 1e7, -900_000_000, 900_000_000),
-        "lon": _clamp_int(s.lon_deg * 1e7, -1_800_000_000, 1_800_000_000),
-        "alt": _clamp_int(s.alt_msl_m * 1000.0, -(2**31), 2**31 - 1),
-        "vx": _clamp_int(s.vel_ned[0] * 100, -INT16_MAX, INT16_MAX),
-        "vy": _clamp_int(s.vel_ned[1] * 100, -INT16_MAX, INT16_MAX),
-        "vz": _clamp_int(s.vel_ned[2] * 100, -INT16_MAX, INT16_MAX),
-        "ind_airspeed": _clamp_int(s.airspeed_m_s * 100, 0, UINT16_MAX),
-        "true_airspeed": _clamp_int(s.airspeed_m_s * 100, 0, UINT16_MAX),
-        "xacc": _clamp_int(s.specific_force_frd[0] * 1000, -INT16_MAX, INT16_MAX),
-        "yacc": _clamp_int(s.specific_force_frd[1] * 1000, -INT16_MAX, INT16_MAX),
-        "zacc": _clamp_int(s.specific_force_frd[2] * 1000, -INT16_MAX, INT16_MAX),
-    }
-
-
 def read_hil_state_quaternion(msg: Any) -> GroundTruth:
     return GroundTruth(
         t_us=msg.time_usec,
@@ -220,24 +211,8 @@ def read_hil_state_quaternion(msg: Any) -> GroundTruth:
     )
 
 
-MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD = 1, 12
-MAV_ESTIMATOR_TYPE_NAIVE = 1  # "this is the truth": no estimator made it
-
-
-def odometry_fields(s: LocalTruth) -> dict[str, Any]:
-    """ODOMETRY with pose and velocity in MAV_FRAME_LOCAL_NED (child_frame_id names the velocity's frame:
-    NED, so no rotation rounds it), rates in body FRD; covariances unknown (NaN first element)."""
-    nan_covariance = [math.nan] + [0.0] * 20
-    return {"time_usec": s.t_us, "frame_id": MAV_FRAME_LOCAL_NED, "child_frame_id": MAV_FRAME_LOCAL_NED,
-            "x": s.pos_ned[0], "y": s.pos_ned[1], "z": s.pos_ned[2], "q": list(s.q_wxyz),
-            "vx": s.vel_ned[0], "vy": s.vel_ned[1], "vz": s.vel_ned[2],
-            "rollspeed": s.rates_frd[0], "pitchspeed": s.rates_frd[1], "yawspeed": s.rates_frd[2],
-            "pose_covariance": nan_covariance, "velocity_covariance": nan_covariance, "reset_counter": 0,
-            "estimator_type": MAV_ESTIMATOR_TYPE_NAIVE, "quality": 100}
-
-
 def read_odometry(msg: Any) -> LocalTruth:
-    """The inverse of `odometry_fields` (velocity expected in MAV_FRAME_LOCAL_NED)."""
+    """The true state of an ODOMETRY `hil_frames.put_odometry` packed (velocity in MAV_FRAME_LOCAL_NED)."""
     return LocalTruth(t_us=msg.time_usec, pos_ned=(msg.x, msg.y, msg.z), vel_ned=(msg.vx, msg.vy, msg.vz),
                       q_wxyz=tuple(msg.q),
                       rates_frd=(msg.rollspeed, msg.pitchspeed, msg.yawspeed))

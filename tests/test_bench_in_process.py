@@ -200,7 +200,8 @@ def test_a_pilot_that_ends_the_flight_is_not_asked_again(tmp_path, board_for, sp
     pilot, frames = ShortPilot(25), []
     stepper = Stepper(world, board.handle, pilot, [FrameSink(frames.append)], step_us(scenario), False, "none")
     if split:  # PX4 SITL's order: the next step decided while the board computes this one
-        stepper.io = SplitBoardIO(board.handle, "none", world.local_frame, world.environment.steady, stepper.timing)
+        stepper.io = SplitBoardIO(board.handle, "none", world.local_frame, world.environment.steady, stepper.timing,
+                                  world.sensors)
     try:
         result = stepper.run()
     finally:

@@ -5,6 +5,7 @@ the controller classes give in process on the exact state."""
 from __future__ import annotations
 
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +15,7 @@ import pytest
 from pymavlink.dialects.v20 import common
 
 from firmware_interface import hil_codec as codec
+from firmware_interface import hil_frames
 from firmware_interface.emulator.config import build_config
 from hil.reports.plotting import state_index
 from hil.reports.rundata import load_flight
@@ -35,11 +37,13 @@ def run(scenario: Path, runs: Path, *options: str) -> Path:
 def test_odometry_carries_the_local_state_as_float32_with_velocity_in_ned():
     truth = codec.LocalTruth(t_us=8000, pos_ned=(1.23456789, -2.5, -38.7654321), vel_ned=(0.987654321, -1.0, 0.005),
                              q_wxyz=(0.9659258, 0.0, 0.0, 0.2588190), rates_frd=(0.1, -0.2, 0.3))
-    fields = codec.odometry_fields(truth)
-    assert (fields["frame_id"], fields["child_frame_id"]) == (1, 1)  # MAV_FRAME_LOCAL_NED for pose and velocity
-    mav = common.MAVLink(None, srcSystem=255)
-    wire = common.MAVLink_odometry_message(**fields).pack(mav)
-    back = codec.read_odometry(common.MAVLink(None).parse_char(wire))
+    buffer = np.zeros(512, dtype=np.uint8)
+    size = hil_frames.encode_odometry(buffer, 0, 255, 51, truth.t_us, *(np.array(v) for v in (
+        truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd)))
+    message = common.MAVLink(None).parse_char(buffer[:size].tobytes())  # pymavlink checks the frame's checksum
+    assert (message.frame_id, message.child_frame_id) == (1, 1)  # MAV_FRAME_LOCAL_NED for pose and velocity
+    assert message.estimator_type == 1 and math.isnan(message.pose_covariance[0])  # MAV_ESTIMATOR_TYPE_NAIVE
+    back = codec.read_odometry(message)
     for sent, received in ((truth.pos_ned, back.pos_ned), (truth.vel_ned, back.vel_ned), (truth.q_wxyz, back.q_wxyz),
                            (truth.rates_frd, back.rates_frd)):
         assert np.array(received) == pytest.approx(np.array(sent, dtype=np.float32), abs=0)

@@ -7,6 +7,7 @@ from collections import Counter
 from collections.abc import Callable, Mapping
 from typing import Any, Self, TypeAlias
 
+import numpy as np
 from pymavlink.dialects.v20 import common
 
 from firmware_interface.link.connection import open_transport, parse_connection
@@ -15,10 +16,13 @@ from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.errors import LinkLost
 from firmware_interface.link.faults import LinkFaults
 from firmware_interface.link.scanner import FrameScanner, partial_timeout_for
-from firmware_interface.link.transports import Transport
+from firmware_interface.link.transports import SpinWait, Transport
 
 Message: TypeAlias = Any  # a pymavlink MAVLink_message: pymavlink carries no type information
 FrameTap = Callable[[bytes], None]  # sees every frame sent and every frame accepted, e.g. a TlogWriter
+# packs one frame at the start of a buffer: (buffer, seq, system id, component id, *fields) -> its length
+Packer = Callable[..., int]
+PACKED_MAX = 512  # bytes: the longest frame a packer writes (firmware_interface.hil_frames), with room
 
 
 class Link:
@@ -51,6 +55,7 @@ class Link:
         self.frames_out = 0
         self._closed = False
         self._batch: bytearray | None = None
+        self._packed = np.zeros(PACKED_MAX, np.uint8)  # what `pack` writes into
 
     def send(self, message: str, /, **fields: Any) -> None:
         """Send one message by name, e.g. `send("HEARTBEAT", type=2, ...)`."""
@@ -62,6 +67,28 @@ class Link:
     def encode(self, message: str, fields: Mapping[str, Any]) -> bytes:
         """One frame of this link's sender, numbered now: for a frame built ahead of when it is sent."""
         return self.encoder.encode(message_class(message), fields)
+
+    def pack(self, packer: Packer, *fields: Any) -> bytes:
+        """One frame of this link's sender from a compiled packer (`hil_frames.encode_*`), numbered now."""
+        encoder = self.encoder
+        size = packer(self._packed, encoder.seq, encoder.system_id, encoder.component_id, *fields)
+        encoder.seq = (encoder.seq + 1) & 0xFF
+        return self._packed[:size].tobytes()
+
+    def send_frames(self, frames: np.ndarray, ends: np.ndarray, count: int) -> None:
+        """`count` frames packed one after the other in `frames`, each ending at `ends[k]`, numbered from this
+        link's sequence on (the packer took it): sent as `send_frame` sends each, in one piece when nothing
+        watches or alters single frames."""
+        self.encoder.seq = (self.encoder.seq + count) & 0xFF
+        if self.tap is None and self.faults is None and self._batch is not None:
+            self._batch += frames[:ends[count - 1]].tobytes()  # the common case: a step's frames into its write
+            self.bytes_out += int(ends[count - 1])
+            self.frames_out += count
+            return
+        start = 0
+        for k in range(count):
+            self.send_frame(frames[start:ends[k]].tobytes())
+            start = int(ends[k])
 
     def send_frame(self, frame: bytes) -> None:
         self.bytes_out += len(frame)
@@ -122,6 +149,12 @@ class Link:
                       bytes_in=self.bytes_in, bytes_out=self.bytes_out, decode_errors=self.decode_errors,
                       passed_through=self.passed_through)
         return dict(counts)
+
+    def spin_wait(self) -> None:
+        """Wait for what the peer sends by polling a while before sleeping (`SpinWait`), where the transport can
+        (a pty, a serial port, TCP); a no-op elsewhere."""
+        if hasattr(self.transport, "spin"):
+            self.transport.spin = SpinWait()
 
     def close(self) -> None:
         if not self._closed:

@@ -109,7 +109,7 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
         except ValueError as exc:
             print(f"hil run: --foxglove {exc}", file=sys.stderr)
             return None
-    return RunOptions(board=board, foxglove=args.foxglove, realtime=args.realtime,
+    return RunOptions(board=board, foxglove=args.foxglove, realtime=args.realtime, spin_wait=args.spin_wait,
                       gcs=[] if args.no_gcs else args.gcs, runs_root=Path(args.runs), keep_failed=args.keep_failed,
                       telemetry=None if args.no_telemetry else zenoh_options(args),
                       telemetry_rates_hz=scenario.telemetry.rates_hz, speed_factor=args.speed_factor)
@@ -190,6 +190,9 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
                      help="pace a lockstep board at N times the wall clock (as PX4_SIM_SPEED_FACTOR; PX4 SITL is told "
                           "it). An outside pilot's run is paced at 1 by default; a faster one lets a script fly N "
                           "times faster than it would take a person")
+    run.add_argument("--spin-wait", action="store_true",
+                     help="wait for the board's lockstep replies by polling a while before sleeping: faster on a "
+                          "machine with a core to spare, slower for the rest of a busy one (docs/performance.md)")
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")

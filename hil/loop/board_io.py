@@ -10,8 +10,10 @@ from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Message
 from hil.boards.handle import BoardHandle
 from hil.boards.target import GroundTruthUse
+from hil.loop.step_frames import ODOMETRY_FLAG, SETPOINT_FLAG, StepFrames, pack_only, sense_and_pack, sense_only
 from hil.loop.timing import LoopTiming
 from hil.scenario.reference import RefSample
+from hil.sensors import SensorSuite
 from plant_fmu.state import PlantState
 
 
@@ -23,28 +25,58 @@ class BoardIO:
     setpoint_in_frame = True
 
     def __init__(self, board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,
-                 timing: LoopTiming) -> None:
+                 timing: LoopTiming, sensors: SensorSuite) -> None:
         self.board = board
         self.truth_use = truth_use
         self.frame = frame
         self.steady_wind_ned = steady_wind_ned
         self.timing = timing
         self.ground_station_lost = False  # the relay's traffic is dropped both ways (a ground-station loss)
+        self.sensors = sensors
+        self.step = StepFrames(sensors.has_faults)
+        self._arrays = sensors.arrays
+        self._flags = ODOMETRY_FLAG if truth_use == "to_fly" else 0
 
-    def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                  readings: codec.SensorReadings, gps: codec.GpsFix | None, truth: PlantState) -> None:
-        """This step's frame out first, in one write; then what may overlap the board's computation."""
+    def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None, truth: PlantState,
+                  fault_time_s: float) -> tuple[codec.SensorReadings, codec.GpsFix | None]:
+        """This step's frame out first, in one write; then what may overlap the board's computation. Returns the
+        step's readings."""
         session = self.board.hil_session
         session.link.begin_batch()
-        if reference is not None and self.setpoint_in_frame:
-            self._send_setpoint(t_us, reference, offset_ned)
-        session.send_step(readings, gps, self._local_truth(t_us, truth) if self.truth_use == "to_fly" else None)
+        session.begin_step(t_us)
+        self._pack_and_send(t_us, reference, offset_ned, truth, fault_time_s)
         session.link.flush()
-        self.timing.lap("encode_and_send")
+        self.timing.lap("sensors_and_send")
         self._after_frame(t_us, reference, offset_ned, truth)
         if self.board.gcs is not None:
             self._relay_gcs()
         self.timing.lap("command_link_and_relay")
+        return codec.readings_of_row(self.step.row)
+
+    def _pack_and_send(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
+                       truth: PlantState, fault_time_s: float) -> None:
+        """The sensor models and the step's frames (`step_frames`), into the link's write."""
+        step, link = self.step, self.board.hil_session.link
+        flags = self._flags
+        if reference is not None and self.setpoint_in_frame:
+            flags |= SETPOINT_FLAG
+            step.setpoint[0:3] = reference.pos_ned + (offset_ned if offset_ned is not None else 0.0)
+            step.setpoint[3:6], step.setpoint[6:9] = reference.vel_ned, reference.acc_ned
+            step.setpoint[9] = reference.yaw
+            step.target[:] = self.board.command_session.target()
+        step.link[:] = (link.encoder.seq, link.encoder.system_id, link.encoder.component_id)
+        state = truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd
+        self.sensors.refill()
+        if step.has_faults:  # the models, the faults on their readings, then the frames
+            sense_only(self._arrays, t_us, *state, truth.specific_force_frd, step.row)
+            self.sensors.row[:] = step.row
+            self.sensors.apply_faults(fault_time_s)
+            step.row[:] = self.sensors.row
+            count = pack_only(step.row, *state, flags, step.setpoint, step.target, step.frames, step.ends, step.link)
+        else:
+            count = sense_and_pack(self._arrays, t_us, *state, truth.specific_force_frd, step.row, flags,
+                                   step.setpoint, step.target, step.frames, step.ends, step.link)
+        link.send_frames(step.frames, step.ends, count)
 
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
                      truth: PlantState) -> None:
@@ -62,10 +94,10 @@ class BoardIO:
         return self.board.hil_session.take_inbox()
 
     def _send_setpoint(self, t_us: int, reference: RefSample, offset_ned: np.ndarray | None) -> None:
-        """The reference in the board's own local frame (`offset_ned`, from arming on)."""
+        """The reference in the board's own local frame (`offset_ned`, from arming on), on its command link."""
         offset = offset_ned if offset_ned is not None else 0.0
-        self.board.command_session.send_setpoint(t_us // 1000, tuple(reference.pos_ned + offset),
-                                                 tuple(reference.vel_ned), tuple(reference.acc_ned), reference.yaw)
+        self.board.command_session.send_setpoint(t_us // 1000, reference.pos_ned + offset, reference.vel_ned,
+                                                 reference.acc_ned, reference.yaw)
 
     def _relay_gcs(self) -> None:
         """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames (neither way in
@@ -79,12 +111,6 @@ class BoardIO:
         for frame in gcs.from_gcs():
             if not self.ground_station_lost:
                 board.command_session.link.send_frame(frame)
-
-    @staticmethod
-    def _local_truth(t_us: int, truth: PlantState) -> codec.LocalTruth:
-        """The true state for the emulator's exact-state path (ODOMETRY, float precision)."""
-        return codec.LocalTruth(t_us, tuple(truth.pos_ned.tolist()), tuple(truth.vel_ned.tolist()),
-                                tuple(truth.q_wxyz.tolist()), tuple(truth.rates_frd.tolist()))
 
     def _ground_truth(self, t_us: int, truth: PlantState) -> codec.GroundTruth:
         """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log."""
@@ -118,6 +144,6 @@ class SplitBoardIO(BoardIO):
 
 
 def board_io(board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,
-             timing: LoopTiming) -> BoardIO:
+             timing: LoopTiming, sensors: SensorSuite) -> BoardIO:
     kind = SplitBoardIO if board.own_command_link else BoardIO
-    return kind(board, truth_use, frame, steady_wind_ned, timing)
+    return kind(board, truth_use, frame, steady_wind_ned, timing, sensors)

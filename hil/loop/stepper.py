@@ -35,7 +35,7 @@ from hil.loop.sink import Sink
 from hil.loop.timing import LoopTiming
 from hil.scenario.environment import Environment, EnvironmentSample
 from hil.scenario.expressions import EvaluationError
-from hil.sensors import SensorSuite, TrueState
+from hil.sensors import SensorSuite
 from plant_fmu import Plant, PlantError
 
 Progress = Callable[[str, float, float, float], None]  # phase, bench time (s), fraction flown, real-time factor
@@ -71,7 +71,7 @@ class Stepper:
         self.paced = paced
         self.progress = progress
         self.timing = LoopTiming()
-        self.io = board_io(board, truth_use, world.local_frame, world.environment.steady, self.timing)
+        self.io = board_io(board, truth_use, world.local_frame, world.environment.steady, self.timing, world.sensors)
         self.pacer = Pacer(self.dt / speed_factor, self.timing)  # paced: a step every dt / speed_factor of wall time
         self.view = PilotView(board.command_session.report, board.command_session.link.name, self.emit, board.params)
         self.t_us = 0
@@ -187,15 +187,12 @@ class Stepper:
         world.plant.step(self.dt)
         self.truth = truth = world.plant.state()
         self.t_us += self.dt_us
-        timing.lap("plant")
-        readings, gps = world.sensors.step(TrueState(self.t_us, truth.pos_ned, truth.vel_ned, truth.q_wxyz,
-                                                     truth.rates_frd, truth.specific_force_frd),
-                                           mission_t)  # before the mission (-inf) no sensor fault acts
         for faults in world.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
-        sent = timing.lap("sensors")
+        sent = timing.lap("plant")
         self._silence_ground_station(mission_t)
-        self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, readings, gps, truth)
+        readings, gps = self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, truth,
+                                          mission_t)  # before the mission (-inf) no sensor fault acts
         others = world.senders.send(self.board.command_session, self.t_us, mission_t, truth, self.emit)
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")

@@ -11,7 +11,7 @@ from typing import Any
 from hil.loop.streaming_stats import LogHistogram
 
 LATE_DETAIL = 20  # late steps explained in metrics.json (all are counted)
-BREAKDOWN_PARTS = ("phase_and_environment", "plant", "sensors", "encode_and_send", "command_link_and_relay",
+BREAKDOWN_PARTS = ("phase_and_environment", "plant", "sensors_and_send", "command_link_and_relay",
                    "previous_step_messages_and_sinks", "wait_for_board", "frame")
 
 

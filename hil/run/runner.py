@@ -36,6 +36,7 @@ from hil.host.stop_signals import stopped_by_signals
 from hil.judge.behaviour import behaviour_judge
 from hil.judge.metrics import MetricsCollector, check_expectations
 from hil.loop.sink import Outcome, Sink
+from hil.loop.step_frames import warm_up_beside
 from hil.loop.stepper import Progress, Stepper
 from hil.outputs.context import OutputContext, OutputError
 from hil.outputs.disk import DiskWatch, filesystem_of, is_no_space
@@ -54,6 +55,7 @@ from plant_fmu import Plant
 class RunOptions:
     board: BoardTarget = field(default_factory=EmulatorTarget)  # what flies (hil.boards.registry names them)
     realtime: bool = False  # pace the run on the wall clock even when the board would run in lockstep
+    spin_wait: bool = False  # poll for the board's lockstep replies before sleeping (a machine with a core to spare)
     runs_root: Path = Path("runs")
     keep_failed: bool = False  # keep the run directory of an attempt that never reached a board
     watchdog_s: float = 1.0
@@ -162,18 +164,22 @@ class _Run:
         scenario, report, flight = self.scenario, self.report, self.flight
         settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(flight.parameters),
                                 self.options.speed_factor, flight.plant.rotor_geometry(flight.parameters))
+        compiled_step_ready = warm_up_beside()  # loaded while the board starts (~0.4 s)
         try:
             report.handle = handle = self.options.board.attach(scenario, self.run_dir, settings)
         except (BoardError, LinkError) as exc:
             report.reason, report.code = f"board/link failure: {exc}", EXIT_BOARD
             return
         stack.callback(handle.close)  # before the outputs close: the board is stopped first
+        if self.options.spin_wait:
+            handle.hil_session.link.spin_wait()
         report.board_text = handle.description + _relay(handle, self.policy, self.options.gcs, scenario.pilot.type)
         world = build_world(scenario, handle, flight.plant)
         metrics = MetricsCollector(scenario.expect.settle_s if scenario.expect else 5.0)
         expect = scenario.expect.for_board(self.policy.px4) if scenario.expect else None
         behaviour = behaviour_judge(scenario, expect)
         pilot = make_pilot(scenario, flight.plan, step_us(scenario))
+        compiled_step_ready()
         stepper = Stepper(world, handle, pilot, [metrics, behaviour, *sinks], step_us(scenario), self.paced,
                           self.policy.ground_truth, progress, self.options.speed_factor)
         result = stepper.run()

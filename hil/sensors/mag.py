@@ -9,7 +9,7 @@ from pygeomag import GeoMag
 
 from hil.sensors.config import MagConfig
 from hil.sensors.geodesy import Home
-from hil.sensors.noise import NormalStream
+from hil.sensors.noise import SENSORS, NormalStream
 from hil.sensors.truth import rotate_ned_to_frd
 
 NANOTESLA = 1e-9
@@ -29,15 +29,37 @@ def earth_field_ned(config: MagConfig, home: Home) -> np.ndarray:
     return np.array((result.x, result.y, result.z)) * NANOTESLA
 
 
+@SENSORS.inline
+def mag_sample(mag: np.ndarray, noise: np.ndarray, cursor: np.ndarray, q_wxyz: np.ndarray, out: np.ndarray) -> None:
+    """The field (mag[0:3], NED, tesla) in body FRD plus the bias (mag[3:6]) and white noise (σ mag[6]) into
+    out[0:3]."""
+    b = rotate_ned_to_frd(q_wxyz, mag[0:3])
+    n = noise[cursor[0]]
+    cursor[0] += 1
+    for k in range(3):
+        out[k] = b[k] + mag[3 + k] + mag[6] * n[k]
+
+
+@SENSORS.compiled
+def _sample(mag: np.ndarray, noise: np.ndarray, cursor: np.ndarray, q_wxyz: np.ndarray, out: np.ndarray) -> None:
+    mag_sample(mag, noise, cursor, q_wxyz, out)
+
+
 class Magnetometer:
     def __init__(self, config: MagConfig, home: Home, rng: np.random.Generator) -> None:
         self.field_ned = earth_field_ned(config, home)
-        self.bias = (config.bias_turn_on * rng.standard_normal(3)).tolist()
-        self._sigma = config.noise_density * math.sqrt(config.rate_hz)
-        self._noise = NormalStream(rng, 3)
+        bias = config.bias_turn_on * rng.standard_normal(3)
+        self.params = np.array([*self.field_ned, *bias, config.noise_density * math.sqrt(config.rate_hz)])
+        self.noise = NormalStream(rng, 3)
+        self._out = np.empty(3)
+
+    @property
+    def bias(self) -> list[float]:
+        return self.params[3:6].tolist()
 
     def sample(self, q_wxyz: np.ndarray) -> tuple[float, float, float]:
         """Field in body FRD, tesla."""
-        b = rotate_ned_to_frd(q_wxyz, self.field_ned)
-        n, s, bias = self._noise.next(), self._sigma, self.bias
-        return (b[0] + bias[0] + s * n[0], b[1] + bias[1] + s * n[1], b[2] + bias[2] + s * n[2])
+        self.noise.refill()
+        _sample(self.params, self.noise.rows, self.noise.cursor, np.asarray(q_wxyz, dtype=np.float64), self._out)
+        x, y, z = self._out.tolist()
+        return x, y, z

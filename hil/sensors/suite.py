@@ -7,8 +7,20 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator
 
-from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
-from hil.sensors.baro import Barometer, isa_altitude_m
+from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings, readings_of_row, sensor_row
+from firmware_interface.hil_frames import (
+    HAS_ACCEL,
+    HAS_BARO,
+    HAS_GYRO,
+    HAS_MAG,
+    ROW_ACCEL,
+    ROW_BARO,
+    ROW_MAG_T,
+    ROW_PRESENT,
+    ROW_SIZE,
+    ROW_T_US,
+)
+from hil.sensors.baro import Barometer, baro_sample, isa_altitude_m
 from hil.sensors.config import (
     BARO_PROFILES,
     GPS_PROFILES,
@@ -18,12 +30,11 @@ from hil.sensors.config import (
 )
 from hil.sensors.faults import FaultInjector, SensorFault
 from hil.sensors.geodesy import Home
-from hil.sensors.gps import Gps
-from hil.sensors.imu import Imu
-from hil.sensors.mag import Magnetometer
+from hil.sensors.gps import Gps, gps_step
+from hil.sensors.imu import Imu, imu_sample
+from hil.sensors.mag import Magnetometer, mag_sample
+from hil.sensors.noise import SENSORS
 from hil.sensors.truth import TrueState
-
-Vec3 = tuple[float, float, float]
 
 
 class SensorChoice(BaseModel):
@@ -58,20 +69,45 @@ class SensorsConfig(BaseModel):
         return choice
 
 
-class _Schedule:
-    """A fixed-rate trigger on the bench clock."""
+@SENSORS.inline
+def due(schedule: np.ndarray, t_us: int) -> bool:
+    """A fixed-rate trigger on the bench clock: schedule = (next µs, or -1 before the first; period µs)."""
+    if schedule[0] < 0:
+        schedule[0] = t_us
+    if t_us < schedule[0]:
+        return False
+    schedule[0] += schedule[1]
+    return True
 
-    def __init__(self, rate_hz: float) -> None:
-        self.period_us = round(1e6 / rate_hz)
-        self._next_us: int | None = None
 
-    def due(self, t_us: int) -> bool:
-        if self._next_us is None:
-            self._next_us = t_us
-        if t_us < self._next_us:
-            return False
-        self._next_us += self.period_us
-        return True
+@SENSORS.inline
+def suite_sense(imu: np.ndarray, imu_noise: np.ndarray, imu_cursor: np.ndarray, mag: np.ndarray,
+                mag_noise: np.ndarray, mag_cursor: np.ndarray, mag_due: np.ndarray, baro: np.ndarray,
+                baro_noise: np.ndarray, baro_cursor: np.ndarray, baro_due: np.ndarray, home_alt_m: float,
+                gps: np.ndarray, gps_state: np.ndarray, gps_line: np.ndarray, gps_noise: np.ndarray,
+                gps_cursor: np.ndarray, frame: np.ndarray, t_us: int, pos_ned: np.ndarray, vel_ned: np.ndarray,
+                q_wxyz: np.ndarray, rates_frd: np.ndarray, specific_force_frd: np.ndarray, row: np.ndarray) -> None:
+    """Every sensor of the suite for the bench step at `t_us`, in the order each draws its noise, into the step's
+    row (`hil_frames.ROW_*`): the IMU every step; mag, baro and GPS when due (the arguments: `SensorSuite.arrays`,
+    then the true state)."""
+    row[:] = 0.0
+    row[ROW_T_US] = t_us
+    present = HAS_ACCEL | HAS_GYRO
+    imu_sample(imu, imu_noise, imu_cursor, specific_force_frd, rates_frd, row[ROW_ACCEL:ROW_ACCEL + 6])
+    if due(mag_due, t_us):
+        mag_sample(mag, mag_noise, mag_cursor, q_wxyz, row[ROW_MAG_T:ROW_MAG_T + 3])
+        present |= HAS_MAG
+    if due(baro_due, t_us):
+        baro_sample(baro, baro_noise, baro_cursor, t_us * 1e-6, home_alt_m - pos_ned[2], row[ROW_BARO:ROW_BARO + 3])
+        present |= HAS_BARO
+    row[ROW_PRESENT] = present
+    gps_step(gps, gps_state, gps_line, gps_noise, gps_cursor, frame, t_us, pos_ned, vel_ned, row)
+
+
+@SENSORS.compiled
+def _sense(arrays: tuple, t_us: int, pos_ned: np.ndarray, vel_ned: np.ndarray, q_wxyz: np.ndarray,
+           rates_frd: np.ndarray, specific_force_frd: np.ndarray, row: np.ndarray) -> None:
+    suite_sense(*arrays, t_us, pos_ned, vel_ned, q_wxyz, rates_frd, specific_force_frd, row)  # type: ignore[call-arg]
 
 
 class SensorSuite:
@@ -86,37 +122,52 @@ class SensorSuite:
         self.mag = Magnetometer(mag_config, home, mag_rng)
         self.baro = Barometer(baro_config, baro_rng)
         self.gps = Gps(resolve(GPS_PROFILES, config.gps.profile, config.gps.overrides), home, gps_rng)
-        self._mag_due, self._baro_due = _Schedule(mag_config.rate_hz), _Schedule(baro_config.rate_hz)
+        self._mag_due = np.array((-1, round(1e6 / mag_config.rate_hz)), dtype=np.int64)
+        self._baro_due = np.array((-1, round(1e6 / baro_config.rate_hz)), dtype=np.int64)
         fault_rngs = fault_rng.spawn(5)
         self._faults = {
             name: FaultInjector([f for f in config.faults if f.sensor == name], r)
             for name, r in zip(("accel", "gyro", "mag", "baro", "gps"), fault_rngs, strict=True)
         }
-        self._has_faults = bool(config.faults)
+        self.has_faults = bool(config.faults)
+        self.row = np.zeros(ROW_SIZE)  # the latest step's readings
+
+    @property
+    def arrays(self) -> tuple[Any, ...]:
+        """What `suite_sense` takes before the true state: every sensor's parameters, noise and schedule."""
+        imu, mag, baro, gps = self.imu, self.mag, self.baro, self.gps
+        return (imu.params, imu.noise.rows, imu.noise.cursor, mag.params, mag.noise.rows, mag.noise.cursor,
+                self._mag_due, baro.params, baro.noise.rows, baro.noise.cursor, self._baro_due,
+                float(self.home.alt_msl_m), gps.params, gps.state, gps.line, gps.noise.rows, gps.noise.cursor,
+                gps.frame)
+
+    def refill(self) -> None:
+        """Each sensor's next block of noise once it has taken the last row of the one before."""
+        for sensor in (self.imu, self.mag, self.baro, self.gps):
+            sensor.noise.refill()
 
     def step(self, truth: TrueState, fault_time_s: float | None = None) -> tuple[SensorReadings, GpsFix | None]:
         """Sensor outputs for this bench step; faults are timed by `fault_time_s` (default: bench time)."""
-        t_us = truth.t_us
-        accel, gyro = self.imu.sample(truth.specific_force_frd, truth.rates_frd)
-        mag = self.mag.sample(truth.q_wxyz) if self._mag_due.due(t_us) else None
-        baro = self.baro.sample(t_us * 1e-6, self.home.alt_msl_m - float(truth.pos_ned[2])) \
-            if self._baro_due.due(t_us) else None
-        gps = self.gps.step(t_us, truth.pos_ned, truth.vel_ned)
-        if self._has_faults:
-            when = t_us * 1e-6 if fault_time_s is None else fault_time_s
-            faulted_accel, faulted_gyro, mag, baro, gps = self._apply_faults(when, accel, gyro, mag, baro, gps)
-            return SensorReadings(t_us=t_us, accel_frd=faulted_accel, gyro_frd=faulted_gyro, mag_frd_t=mag,
-                                  baro=baro), gps
-        return SensorReadings(t_us=t_us, accel_frd=accel, gyro_frd=gyro, mag_frd_t=mag, baro=baro), gps
+        self.refill()
+        pos, vel, q, rates, force = (np.asarray(v, dtype=np.float64) for v in (
+            truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd, truth.specific_force_frd))
+        _sense(self.arrays, truth.t_us, pos, vel, q, rates, force, self.row)
+        if self.has_faults:
+            self.apply_faults(truth.t_us * 1e-6 if fault_time_s is None else fault_time_s)
+        return readings_of_row(self.row)
 
-    def _apply_faults(self, t_s: float, accel: Vec3, gyro: Vec3, mag: Vec3 | None, baro: Baro | None,
-                      gps: GpsFix | None) -> tuple[Vec3 | None, Vec3 | None, Vec3 | None, Baro | None, GpsFix | None]:
-        f = self._faults  # in this order: the injectors may share one random stream
-        faulted_accel, faulted_gyro = f["accel"].apply(t_s, accel), f["gyro"].apply(t_s, gyro)
-        faulted_mag = None if mag is None else f["mag"].apply(t_s, mag)
+    def apply_faults(self, t_s: float) -> None:
+        """The sensor faults active at `t_s` on the step's row, in this order: the injectors may share one random
+        stream."""
+        readings, gps = readings_of_row(self.row)
+        f = self._faults
+        accel = None if readings.accel_frd is None else f["accel"].apply(t_s, readings.accel_frd)
+        gyro = None if readings.gyro_frd is None else f["gyro"].apply(t_s, readings.gyro_frd)
+        mag = None if readings.mag_frd_t is None else f["mag"].apply(t_s, readings.mag_frd_t)
+        baro = readings.baro
         if baro is not None:
             p = f["baro"].apply(t_s, (baro.pressure_pa,))
             baro = None if p is None else Baro(p[0], baro.temperature_degc, isa_altitude_m(p[0]))
         if gps is not None and f["gps"].apply(t_s, (0.0,)) is None:  # a GPS fault can only drop fixes
             gps = None
-        return faulted_accel, faulted_gyro, faulted_mag, baro, gps
+        self.row[:] = sensor_row(SensorReadings(readings.t_us, accel, gyro, mag, baro), gps)

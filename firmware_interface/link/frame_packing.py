@@ -1,0 +1,85 @@
+"""MAVLink 2 frames written field by field into a byte buffer, by compiled code (or by Python, the same code).
+
+A frame starts at `at`: the 10-byte header, the payload from `at + PAYLOAD`, then the X.25 checksum (CRC-16/
+MCRF4XX over the header after the magic byte, the payload and the message's CRC_EXTRA). A packer writes every
+field of its payload at its wire offset (pymavlink's field order: by size, then as declared), then `finish_frame`
+trims the payload's trailing zero bytes, as MAVLink 2 does, and writes the header and the checksum. The frames
+equal pymavlink's `pack()`, byte for byte (tests/test_hil_codec.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from firmware_interface.compiled_code import CompiledCode
+
+STX_V2 = 0xFD
+PAYLOAD = 10  # header bytes before the payload
+OVERHEAD = 12  # header and checksum
+inline = CompiledCode.inline
+
+
+@inline
+def put_u8(buf: np.ndarray, at: int, value: int) -> None:
+    buf[at] = value & 0xFF
+
+
+@inline
+def put_u16(buf: np.ndarray, at: int, value: int) -> None:
+    """Also an int16 in two's complement: the low 16 bits either way."""
+    buf[at] = value & 0xFF
+    buf[at + 1] = (value >> 8) & 0xFF
+
+
+@inline
+def put_u32(buf: np.ndarray, at: int, value: int) -> None:
+    """Also an int32 in two's complement."""
+    for k in range(4):
+        buf[at + k] = (value >> (8 * k)) & 0xFF
+
+
+@inline
+def put_u64(buf: np.ndarray, at: int, value: int) -> None:
+    for k in range(8):
+        buf[at + k] = (value >> (8 * k)) & 0xFF
+
+
+@inline
+def put_f32(buf: np.ndarray, at: int, value: float) -> None:
+    """`value` rounded to float32 (to nearest, as struct's 'f' does), little-endian."""
+    buf[at:at + 4].view(np.float32)[0] = value
+
+
+@inline
+def crc_x25(buf: np.ndarray, start: int, end: int, crc_extra: int) -> int:
+    """MAVLink's X.25 checksum of buf[start:end] followed by the CRC_EXTRA byte."""
+    crc = 0xFFFF
+    for k in range(start, end + 1):
+        byte = int(buf[k]) if k < end else crc_extra
+        tmp = (byte ^ crc) & 0xFF
+        tmp = (tmp ^ (tmp << 4)) & 0xFF
+        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
+    return crc
+
+
+@inline
+def finish_frame(buf: np.ndarray, at: int, payload_size: int, seq: int, system_id: int, component_id: int,
+                 msgid: int, crc_extra: int) -> int:
+    """Header and checksum around the payload written at `at + PAYLOAD` (`payload_size` bytes before trimming);
+    returns where the frame ends."""
+    size = payload_size
+    while size > 1 and buf[at + PAYLOAD + size - 1] == 0:
+        size -= 1
+    buf[at] = STX_V2
+    buf[at + 1] = size
+    buf[at + 2] = 0  # incompatibility flags: no signature
+    buf[at + 3] = 0
+    buf[at + 4] = seq & 0xFF
+    buf[at + 5] = system_id
+    buf[at + 6] = component_id
+    buf[at + 7] = msgid & 0xFF
+    buf[at + 8] = (msgid >> 8) & 0xFF
+    buf[at + 9] = (msgid >> 16) & 0xFF
+    end = at + PAYLOAD + size
+    put_u16(buf, end, crc_x25(buf, at + 1, end, crc_extra))
+    return end + 2
