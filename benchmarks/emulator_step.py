@@ -44,7 +44,7 @@ def sensor_frames(n: int) -> list[tuple[bytes, bytes | None]]:
                           np.array([0.0, 0.0, -G]))
         row = codec.sensor_row(*suite.step(truth))
         gps_frame = None
-        if row[hil_frames.ROW_PRESENT] & hil_frames.HAS_GPS:
+        if int(row[hil_frames.ROW_PRESENT]) & hil_frames.HAS_GPS:
             gps_frame = buffer[:hil_frames.encode_hil_gps(buffer, 2 * k, 1, 51, row)].tobytes()
         frames.append((buffer[:hil_frames.encode_hil_sensor(buffer, 2 * k + 1, 1, 51, row)].tobytes(), gps_frame))
     return frames
