@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from plant_fmu.build import ensure_fmu
-from tests.support.cli_runs import run
+from tests.support.cli_runs import REPORTED, run
 from tests.support.px4_builds import px4_build, px4_root
 
 FOREIGN_PLANT = Path(__file__).parent / "data" / "foreign_plant"
@@ -55,7 +55,8 @@ def shipped_flight(tmp_path_factory) -> Callable[[Path], tuple[subprocess.Comple
         if scenario not in flights:
             # no ground-station relay: a GCS answering on UDP 14550 (another run, QGroundControl) would inject
             # commands, and their ACKs would be recorded
-            flights[scenario] = run(scenario, tmp_path_factory.mktemp(scenario.stem), "--no-gcs")
+            options = ("--no-gcs",) if scenario.stem == REPORTED else ("--no-gcs", "--no-report")
+            flights[scenario] = run(scenario, tmp_path_factory.mktemp(scenario.stem), *options)
         return flights[scenario]
 
     return flight
