@@ -15,7 +15,8 @@ from firmware_interface.link.dialect import PASSTHROUGH, frame_msgid
 from firmware_interface.link.encoder import FrameEncoder, message_class
 from firmware_interface.link.errors import LinkLost
 from firmware_interface.link.faults import LinkFaults
-from firmware_interface.link.scanner import FrameScanner, partial_timeout_for
+from firmware_interface.link.light_messages import LIGHT
+from firmware_interface.link.scanner import STX_V2, FrameScanner, partial_timeout_for
 from firmware_interface.link.transports import SpinWait, Transport
 
 Message: TypeAlias = Any  # a pymavlink MAVLink_message: pymavlink carries no type information
@@ -136,6 +137,9 @@ class Link:
             self.passthrough.append(frame)
             self.passed_through += 1
             return None
+        light = LIGHT.get(msgid)
+        if light is not None and frame[0] == STX_V2:  # a message of every step: no pymavlink object
+            return light(frame)
         try:
             return self._decoder.decode(bytearray(frame))
         except Exception:
