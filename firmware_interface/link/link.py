@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import itertools
 import time
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Self, TypeAlias
 
 import numpy as np
@@ -20,7 +21,8 @@ from firmware_interface.link.scanner import STX_V2, FrameScanner, partial_timeou
 from firmware_interface.link.transports import SpinWait, Transport
 
 Message: TypeAlias = Any  # a pymavlink MAVLink_message: pymavlink carries no type information
-FrameTap = Callable[[bytes], None]  # sees every frame sent and every frame accepted, e.g. a TlogWriter
+# sees every frame sent and every frame accepted, those of one write or one read together, e.g. a TlogWriter
+FrameTap = Callable[[Sequence[bytes]], None]
 # packs one frame at the start of a buffer: (buffer, seq, system id, component id, *fields) -> its length
 Packer = Callable[..., int]
 PACKED_MAX = 512  # bytes: the longest frame a packer writes (firmware_interface.hil_frames), with room
@@ -81,10 +83,13 @@ class Link:
         link's sequence on (the packer took it): sent as `send_frame` sends each, in one piece when nothing
         watches or alters single frames."""
         self.encoder.seq = (self.encoder.seq + count) & 0xFF
-        if self.tap is None and self.faults is None and self._batch is not None:
-            self._batch += frames[:ends[count - 1]].tobytes()  # the common case: a step's frames into its write
+        if self.faults is None and self._batch is not None:  # the common case: a step's frames into its write
+            self._batch += frames[:ends[count - 1]].tobytes()
             self.bytes_out += int(ends[count - 1])
             self.frames_out += count
+            if self.tap is not None:
+                bounds = [0, *ends[:count].tolist()]
+                self.tap([frames[a:b].tobytes() for a, b in itertools.pairwise(bounds)])
             return
         start = 0
         for k in range(count):
@@ -95,7 +100,7 @@ class Link:
         self.bytes_out += len(frame)
         self.frames_out += 1
         if self.tap is not None:
-            self.tap(frame)
+            self.tap((frame,))
         wire = frame if self.faults is None else self.faults.outgoing(frame)
         if self._batch is not None:
             self._batch += wire
@@ -124,9 +129,8 @@ class Link:
             frames = self.scanner.feed(data, time.monotonic())
             if self.faults is not None:
                 frames = self.faults.incoming_frames(frames)
-            if self.tap is not None:
-                for frame in frames:
-                    self.tap(frame)
+            if self.tap is not None and frames:
+                self.tap(frames)
             if frames or remaining <= 0:
                 return [m for m in (self._decode(f) for f in frames) if m is not None]
 

@@ -14,6 +14,7 @@ import os
 import struct
 from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 from hil.exit_codes import EXIT_DISK_FULL
 from hil.loop.pilot import RunAborted
@@ -25,6 +26,7 @@ _RUST_NO_SPACE = ("StorageFull", "QuotaExceeded")  # how the Rust MCAP writer's 
 FOXGLOVE_LOGGERS = ("foxglove", "foxglove_py")  # foxglove-sdk's Rust log records arrive on loggers below these
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _RECORD_HEADER = struct.Struct("<BQ")  # opcode, length of the record's body
+T = TypeVar("T")
 
 
 class DiskFull(RunAborted):
@@ -90,11 +92,16 @@ class DiskWatch:
             return False
         return True
 
-    def guard(self, write: Callable[[bytes], None], name: str) -> Callable[[bytes], None]:
+    def guard(self, write: Callable[[T], None], name: str) -> Callable[[T], None]:
         """`write`, which on a full disk records the failure and from then on writes nothing, never raising."""
-        def guarded(data: bytes) -> None:
+        def guarded(data: T) -> None:
             if self.failure is None:
-                self.attempt(name, lambda: write(data))
+                try:
+                    write(data)
+                except OSError as exc:
+                    if not is_no_space(exc):
+                        raise
+                    self.failed(name)
         return guarded
 
     def release(self) -> None:
