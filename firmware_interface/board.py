@@ -7,7 +7,6 @@ code talks to a Pixhawk, PX4 SITL and the emulator; `board_requests` has what th
 
 from __future__ import annotations
 
-import struct
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,21 +23,16 @@ from pymavlink.dialects.v20.common import (
 
 from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames as frames
-from firmware_interface.board_requests import BoardError, ParamSet, ProtocolMessage, Request
+from firmware_interface.board_requests import (
+    BoardError,
+    ParamSet,
+    ProtocolMessage,
+    Request,
+    float_as_int32,
+    int32_as_float,
+)
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
-
-
-def int32_as_float(value: int) -> float:
-    """An INT32 parameter in PARAM_SET's float field, byte for byte (the MAVLink parameter protocol's bytewise
-    encoding, which PX4 uses: it copies the field's four bytes into the parameter)."""
-    return float(struct.unpack("<f", struct.pack("<i", value))[0])
-
-
-def float_as_int32(wire: float) -> int:
-    """PARAM_VALUE's float field read back as the INT32 whose bytes it carries."""
-    return int(struct.unpack("<i", struct.pack("<f", wire))[0])
-
 
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
 STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8

@@ -3,6 +3,7 @@ each step until the answer is in the session's report (`board_waits` has the wai
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,6 +21,17 @@ from firmware_interface.px4_modes import FORCE_DISARM_MAGIC, PX4_MAIN_MODE_OFFBO
 
 class BoardError(LinkError):
     """The board did not answer as expected (no heartbeat, command refused, silent)."""
+
+
+def int32_as_float(value: int) -> float:
+    """An INT32 parameter in PARAM_SET's float field, byte for byte (the MAVLink parameter protocol's bytewise
+    encoding, which PX4 uses: it copies the field's four bytes into the parameter)."""
+    return float(struct.unpack("<f", struct.pack("<i", value))[0])
+
+
+def float_as_int32(wire: float) -> int:
+    """PARAM_VALUE's float field read back as the INT32 whose bytes it carries."""
+    return int(struct.unpack("<i", struct.pack("<f", wire))[0])
 
 
 @dataclass(frozen=True)
