@@ -97,12 +97,10 @@ class MavsdkTester:
     # --- connection and the vehicle's clock ----------------------------------------------
     async def connect(self, url: str) -> None:
         await self.drone.connect(system_address=url)
-        deadline = time.monotonic() + 25  # autopilot_tester.cpp: a system within 25 s
-        async for state in self.drone.core.connection_state():
-            if state.is_connected:
-                break
-            if time.monotonic() > deadline:
-                raise Required("no system connected within 25 s")
+        try:  # autopilot_tester.cpp: a system within 25 s (bounded even if MAVSDK never reports a state)
+            await asyncio.wait_for(self._connected(), 25)
+        except TimeoutError:
+            raise Required(f"no system connected on {url} within 25 s") from None
         for name, stream in (("attitude", self.drone.telemetry.attitude_quaternion()),
                              ("position", self.drone.telemetry.position()),
                              ("ned", self.drone.telemetry.position_velocity_ned()),
@@ -135,6 +133,11 @@ class MavsdkTester:
         await asyncio.gather(*self._tasks, return_exceptions=True)
 
     # --- the steps of autopilot_tester.cpp --------------------------------------------------
+    async def _connected(self) -> None:
+        async for state in self.drone.core.connection_state():
+            if state.is_connected:
+                return
+
     async def wait_until_ready(self) -> None:
         """Health all ok within 30 s, then armable within 20 s."""
         self.findings.check(await self.poll(lambda: self.latest.get("all_ok") is True, 30),
