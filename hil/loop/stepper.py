@@ -191,9 +191,11 @@ class Stepper:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = timing.lap("plant")
         self._silence_ground_station(mission_t)
+        # the battery's and the joystick's messages before the step's HIL frames: a board on one link takes them
+        # in the step they belong to, whenever its read wakes (after them, it took them a step late at times)
+        others = world.senders.send(self.board.command_session, self.t_us, mission_t, truth, self.emit)
         readings, gps = self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, truth,
                                           mission_t)  # before the mission (-inf) no sensor fault acts
-        others = world.senders.send(self.board.command_session, self.t_us, mission_t, truth, self.emit)
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")
         early = self._decide() if self.io.decides_early else None
