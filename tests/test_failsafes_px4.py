@@ -36,6 +36,7 @@ SHORT = ROOT / "tests" / "data" / "failsafes"
 HEARTBEAT_TIMEOUT_S = 2.5  # TelemetryStatus.msg: a ground station counts as present this long after its heartbeat
 HEARTBEAT_CHECK_S = HEARTBEAT_TIMEOUT_S / 2  # mavlink_receiver.cpp CheckHeartbeats: how often that is looked at
 HITL_FIXED_BATTERY_V, HITL_FIXED_REMAINING = 16.0, 0.7  # mavlink_receiver.cpp handle_message_hil_sensor's battery
+MANUAL_CONTROL_RECHECK_S = 0.2  # ManualControl.cpp Run(): with no input it looks again (and times out) every 200 ms
 SLACK_S = 0.2  # PX4's commander and navigator loops (its failsafe framework runs at the commander's rate)
 
 
@@ -68,10 +69,12 @@ def reacted(px4: Px4Log, flag_us: int, action: int, hold_s: float) -> None:
 
 
 def manual_control_lost(px4: Px4Log, run_dir: Path) -> int:
-    """PX4 declared the sticks lost COM_RC_LOSS_T after the bench's last MANUAL_CONTROL; returns when."""
+    """PX4 declared the sticks lost COM_RC_LOSS_T after the bench's last MANUAL_CONTROL, at the first of its
+    manual_control module's 200 ms re-checks past that; returns when."""
     last = recorded(run_dir, "manual_control")[-1]["t_us"]
     lost = px4.first("failsafe_flags", "manual_control_signal_lost", 1, after_us=last)
-    assert px4.parameter("COM_RC_LOSS_T") <= (lost - last) * 1e-6 <= px4.parameter("COM_RC_LOSS_T") + SLACK_S
+    loss_t = px4.parameter("COM_RC_LOSS_T")
+    assert loss_t <= (lost - last) * 1e-6 <= loss_t + MANUAL_CONTROL_RECHECK_S + SLACK_S
     return lost
 
 
