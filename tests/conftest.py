@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from plant_fmu.build import ensure_fmu
-from tests.support.alone import room, runs_alone
+from tests.support.alone import room
 from tests.support.cli_runs import REPORTED, run
 from tests.support.px4_builds import px4_build, px4_root
 
@@ -22,8 +22,8 @@ FOREIGN_PLANT = Path(__file__).parent / "data" / "foreign_plant"
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
     """The whole of a test (its module's fixtures set up or torn down with it too) inside the room: `alone` tests
-    and PX4 SITL's have it to themselves under pytest-xdist (tests/support/alone.py)."""
-    with room(item.config, alone=runs_alone(item)):
+    have it to themselves under pytest-xdist (tests/support/alone.py)."""
+    with room(item.config, alone=item.get_closest_marker("alone") is not None):
         yield
 
 

@@ -50,8 +50,7 @@ FIGURES: dict[str, tuple[str, ...]] = {
 NEEDS_PX4 = {"px4_sitl_speed", "loop_speed"}
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.px4, pytest.mark.alone]) if n in NEEDS_PX4 else n
-                                  for n in FIGURES])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.px4) if n in NEEDS_PX4 else n for n in FIGURES])
 def test_benchmark_runs_quick_and_prints_its_figures(name: str) -> None:
     if name in NEEDS_PX4:
         px4_root()  # unset HIL_PX4_DIR skips with the PX4 tests' line; set, the script reads it itself

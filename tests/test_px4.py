@@ -209,6 +209,7 @@ def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
     assert not processes_using(tmp_path / "runs")
 
 
+@pytest.mark.alone  # two PX4 at once fill both cores: a third flight beside them starved one past the watchdog
 def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):
     scenario = short_hover(tmp_path)
     runs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),

@@ -179,7 +179,6 @@ def test_the_fixtures_fly_a_scenario_in_a_users_own_test(tmp_path):
 
 
 @pytest.mark.px4
-@pytest.mark.alone  # flies PX4 SITL (its own build, not the `sitl` fixture)
 def test_a_scenario_flies_real_px4_as_an_item_and_through_hil_px4(tmp_path):
     """`pytest --hil hover.yaml --hil-board px4:BUILD`, and a user's test on `hil_px4`: each flight its own PX4."""
     from tests.support.px4_builds import px4_build, px4_root

@@ -5,13 +5,7 @@ far less, so two at a time nearly halve the suite on two cores). A test whose as
 (an exit within 2 s, a late step's lateness, a 1 Hz heartbeat) is marked `alone`: it waits until the other
 workers' running tests end, and none starts beside it. Two file locks shared by the workers do it, a turnstile
 and a room: every test passes the turnstile and holds the room shared; an `alone` test holds the turnstile
-(so no test enters after it) until it holds the room alone.
-
-A test that flies PX4 SITL (it uses the `sitl` fixture) runs alone without a mark. Lockstep holds PX4's
-control loop to the bench's clock, not its slower modules: starved of CPU by a flight beside it, PX4's
-position-invalid flag came 5.27 s after the last fix where EKF2_NOAID_TOUT is 5 s (0.1 s over the commander's
-slack; on time in every run alone), and its boot outlasted the bench's 1 s link watchdog twice (at 0.0 and
-0.04 s simulated), once with two PX4 in the same test. The locks live in the session's temporary
+(so no test enters after it) until it holds the room alone. The locks live in the session's temporary
 directory, which the workers share (each has its own below it). Without xdist there is no one to wait for.
 """
 
@@ -33,11 +27,6 @@ def _locked(path: Path, mode: int) -> Iterator[None]:
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
-
-
-def runs_alone(item: pytest.Item) -> bool:
-    """Marked `alone`, or flies PX4 SITL."""
-    return item.get_closest_marker("alone") is not None or "sitl" in getattr(item, "fixturenames", ())
 
 
 @contextmanager
