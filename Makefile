@@ -21,9 +21,8 @@ fmu: $(STAMP)
 run: fmu
 	$(BIN)/hil run scenarios/gust.yaml
 
-# two tests at a time (pytest-xdist): a flight keeps about one core busy; tests marked `alone` run by themselves
 test: fmu
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal
+	$(BIN)/python -m pytest -q
 
 # the unit tests: no end-to-end run, no PX4, nothing slow (under a minute)
 test-fast: fmu

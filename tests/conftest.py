@@ -1,6 +1,6 @@
 """Shared fixtures: the FMU built once per test session from the committed sources, PX4's builds unpacked once
 (HIL_PX4_DIR), the foreign plant (tests/data/foreign_plant) exported by pythonfmu once, and each shipped scenario
-flown once per session for every test that judges that flight; tests marked `alone` run with no other beside them."""
+flown once per session for every test that judges that flight."""
 
 from __future__ import annotations
 
@@ -12,19 +12,10 @@ from pathlib import Path
 import pytest
 
 from plant_fmu.build import ensure_fmu
-from tests.support.alone import room
 from tests.support.cli_runs import REPORTED, run
 from tests.support.px4_builds import px4_build, px4_root
 
 FOREIGN_PLANT = Path(__file__).parent / "data" / "foreign_plant"
-
-
-@pytest.hookimpl(hookwrapper=True)
-def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None):
-    """The whole of a test (its module's fixtures set up or torn down with it too) inside the room: `alone` tests
-    have it to themselves under pytest-xdist (tests/support/alone.py)."""
-    with room(item.config, alone=item.get_closest_marker("alone") is not None):
-        yield
 
 
 @pytest.fixture(scope="session")

@@ -86,7 +86,6 @@ def test_heartbeat_arming_lockstep_and_failsafe(emulator):
     assert out is not None and not out.armed and out.motors == (0.0, 0.0, 0.0, 0.0)
 
 
-@pytest.mark.alone
 def test_heartbeat_with_hil_enabled_within_one_second_then_at_1_hz():
     pair = open_pty_pair()
     board = EmulatedBoard(Link(SerialTransport(pair.slave_path)), build_config())

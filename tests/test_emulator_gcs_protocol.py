@@ -109,7 +109,6 @@ def test_clear_all_empties_the_mission_and_fence_and_rally_are_empty(world):
     assert world.download() == []  # the fence is accepted and ignored; the mission is not touched
 
 
-@pytest.mark.alone
 @pytest.mark.slow
 def test_an_upload_that_stops_is_asked_again_every_quarter_second_then_times_out(world):
     """mavlink_mission.cpp: the missing item re-requested every 0.25 s (MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT); no

@@ -209,7 +209,6 @@ def test_arming_refused_by_px4_puts_its_reason_in_the_summary(sitl, tmp_path):
     assert not processes_using(tmp_path / "runs")
 
 
-@pytest.mark.alone  # two PX4 at once fill both cores: a third flight beside them starved one past the watchdog
 def test_two_sitl_runs_at_once_fly_on_different_instances(sitl, tmp_path):
     scenario = short_hover(tmp_path)
     runs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
@@ -241,7 +240,6 @@ class PhaseWatch:
         self._sub.close()
 
 
-@pytest.mark.alone
 @pytest.mark.parametrize("phase,second_ctrl_c", [("preflight", False), ("takeoff", False), ("mission", False),
                                                  ("landing", False), ("landing", True)])
 def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, second_ctrl_c):

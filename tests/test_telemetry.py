@@ -122,7 +122,6 @@ def watch_on_a_terminal(endpoint: str, listen: bool = False) -> tuple[subprocess
     return proc, master
 
 
-@pytest.mark.alone
 @pytest.mark.parametrize("watch_first", [True, False], ids=["watch-before-run", "watch-after-start"])
 def test_hil_watch_shows_the_run_on_a_terminal_and_exits_with_it(tmp_path, watch_first):
     endpoint = f"tcp/127.0.0.1:{free_port()}"
@@ -149,7 +148,6 @@ def test_hil_watch_shows_the_run_on_a_terminal_and_exits_with_it(tmp_path, watch
     os.close(master)
 
 
-@pytest.mark.alone
 def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
     for i in range(20):
         endpoint = f"tcp/127.0.0.1:{free_port()}"
@@ -175,7 +173,6 @@ def test_bench_and_watch_exit_within_2s_of_run_end_or_ctrl_c_20_times(tmp_path):
         assert time.monotonic() - stopped < 2.0, f"iteration {i}"
 
 
-@pytest.mark.alone
 @pytest.mark.slow
 def test_a_stopped_subscriber_does_not_hold_up_the_end_of_a_run(tmp_path):
     """A subscriber frozen with SIGSTOP (a hung viewer): each of 10 benches exits within 2 s of writing its
