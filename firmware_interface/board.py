@@ -1,8 +1,9 @@
 """A session with a flight controller board over a `Link`.
 
 Heartbeats, the handshake, sensor frames out and actuator frames in with PX4 SITL's lockstep bookkeeping,
-commands and parameters sent without waiting (their answers land in `report`), setpoints, and a watchdog. The same
-code talks to a Pixhawk, PX4 SITL and the emulator; `board_requests` has what the bench asks and the waiting forms.
+commands and parameters sent without waiting (their answers land in `report`), setpoints, and a watchdog
+(`board_watchdog`). The same code talks to a Pixhawk, PX4 SITL and the emulator; `board_requests` has what the
+bench asks and the waiting forms.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from firmware_interface.board_requests import (
     float_as_int32,
     int32_as_float,
 )
+from firmware_interface.board_watchdog import LinkWatchdog
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
 
@@ -99,7 +101,7 @@ class BoardSession:
         self.link = link
         self.policy = policy
         self.heartbeat_period_s = heartbeat_period_s
-        self.watchdog_s = watchdog_s
+        self.watchdog = LinkWatchdog(watchdog_s, lockstep_board=not policy.own_clock)
         self.free_run_wait_s = free_run_wait_s
         self.reversible_motors = reversible_motors  # PX4 outputs reversible motors as -1..1
         self.motor_count = motor_count  # HIL_ACTUATOR_CONTROLS' first outputs that drive the plant's rotors
@@ -170,12 +172,10 @@ class BoardSession:
         counts it), so replies are no longer waited for, and the watchdog allows the longest outage."""
         self.link.faults = faults
         self.wait_for_replies = False
-        self.watchdog_s += faults.longest_outage_s()
+        self.watchdog.watchdog_s += faults.longest_outage_s()
 
     def check_watchdog(self) -> None:
-        silent = self.clock() - self._last_rx
-        if silent > self.watchdog_s:
-            raise BoardError(f"board silent for {silent:.2f} s on {self.link.name} (watchdog {self.watchdog_s:.2f} s)")
+        self.watchdog.check(self.clock() - self._last_rx, self.link.name)
 
     def poll(self, timeout_s: float = 0.0) -> list[Message]:
         """Read and handle whatever arrives within `timeout_s`."""
@@ -201,6 +201,7 @@ class BoardSession:
             self.actuators = codec.read_actuator_controls(msg, self.motor_count, reversible=self.reversible_motors)
             if not self.policy.own_clock:
                 self.lockstep = self.lockstep or self.actuators.lockstep
+                self.watchdog.replied(self.actuators.t_us)
             if self._awaited_t_us is not None and self.actuators.t_us >= self._awaited_t_us:
                 self._awaited_t_us = None
         elif kind == "HEARTBEAT":
@@ -245,7 +246,9 @@ class BoardSession:
     # --- handshake ----------------------------------------------------------------
     def wait_heartbeat(self, timeout_s: float = 5.0, hint: str = HITL_HINT,
                        still_starting: Callable[[], None] | None = None) -> BoardInfo:
-        """Wait for the board's first heartbeat; `still_starting` may raise when the board's process died."""
+        """Wait for the board's first heartbeat; `still_starting` may raise when the board's process died. A lockstep
+        board then has as long for any silence until it has booted (`LinkWatchdog`)."""
+        self.watchdog.start_timeout_s = timeout_s
         deadline = self.clock() + timeout_s
         while self.report.info is None:
             if self.clock() > deadline:
@@ -342,14 +345,14 @@ class BoardSession:
             self.poll(0.0)
             self.check_watchdog()
             return self.actuators
-        wait_s = self.watchdog_s if self.lockstep else self.free_run_wait_s
-        deadline = self.clock() + wait_s
+        limit_s = self.watchdog.limit_s
+        deadline = self.clock() + (limit_s if self.lockstep else self.free_run_wait_s)
         while self._awaited_t_us is not None:
             remaining = deadline - self.clock()
             if remaining <= 0:
                 self.check_watchdog()
                 if self.lockstep:
-                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog_s:.2f} s in lockstep")
+                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {limit_s:.2f} s in lockstep")
                 break
             self.poll(remaining)
         self._awaited_t_us = None

@@ -53,6 +53,13 @@ def test_each_kind_has_a_policy_that_holds_together(fake_px4_build):
                 parse_connection(endpoint)
 
 
+def test_every_kind_takes_the_connect_timeout(fake_px4_build):
+    """--connect-timeout: how long any board has to speak first (and a lockstep one, each silence while it boots)."""
+    for specs in example_specs(fake_px4_build).values():
+        for spec in specs:
+            assert board_target(spec, BoardOptions(connect_timeout_s=7.5)).connect_timeout_s == 7.5, spec
+
+
 def test_a_port_is_a_pixhawk_when_serial_and_a_px4_sitl_started_by_hand_otherwise():
     scenario = load_scenario(ROOT / "scenarios" / "hover.yaml")
     serial = board_target("port:/dev/ttyACM0", BoardOptions(baud=57600)).policy(scenario)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import struct
+import time
 
 import pytest
 from pymavlink.dialects.v20.common import MAV_PARAM_TYPE_INT32, MAV_PARAM_TYPE_REAL32
@@ -10,6 +11,7 @@ from pymavlink.dialects.v20.common import MAV_PARAM_TYPE_INT32, MAV_PARAM_TYPE_R
 from firmware_interface import hil_codec as codec
 from firmware_interface.board import ON_OWN_CLOCK, SIMULATED, BoardError, BoardSession
 from firmware_interface.board_waits import arm, set_offboard
+from firmware_interface.board_watchdog import BOOT_US
 from tests.support.scripted_board import ScriptedBoard
 
 READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
@@ -104,16 +106,35 @@ def test_ground_truth_never_goes_to_a_real_board():
     emulator.stop()
 
 
-def test_watchdog_reports_a_silent_board():
+def test_a_board_silent_while_it_boots_is_reported_after_its_start_timeout_not_the_watchdog():
     scripted = ScriptedBoard(answer_sensors=False)
-    session = BoardSession(scripted.start(), SIMULATED, watchdog_s=0.3)
-    session.wait_heartbeat(2.0)
+    session = BoardSession(scripted.start(), SIMULATED, watchdog_s=0.2)
+    session.wait_heartbeat(0.8)  # the start timeout: also the silence allowed until the board has booted
     scripted.send_heartbeat = False
-    with pytest.raises(BoardError, match="board silent for"):
-        for _ in range(200):
+    began = time.monotonic()
+    with pytest.raises(BoardError, match=r"board silent for .* while it boots \(allowed 0.8 s, its start timeout"):
+        for _ in range(1000):
             session.exchange(READINGS)
-            session.poll(0.01)
+    assert time.monotonic() - began >= 0.8
     scripted.stop()
+
+
+def test_once_its_replies_span_the_boot_a_silent_board_is_reported_after_the_watchdog(board):
+    session = BoardSession(board.start(), SIMULATED, watchdog_s=0.2)
+    session.wait_heartbeat(5.0)
+    board.send_heartbeat = False
+    step_us, t_us = 50_000, 0
+    while session.watchdog.booting:
+        t_us += step_us
+        session.exchange(codec.SensorReadings(t_us, (0, 0, -9.81), (0, 0, 0)))
+        assert t_us < 10_000_000
+    first_reply_us = (board.free_run + 1) * step_us  # the board free-runs its first steps unanswered
+    assert t_us == first_reply_us + BOOT_US  # booted with the reply BOOT_US of simulated time past the first
+    board.answer_sensors = False
+    began = time.monotonic()
+    with pytest.raises(BoardError, match=r"board silent for .* \(watchdog 0.20 s\)"):
+        session.exchange(codec.SensorReadings(t_us + step_us, (0, 0, -9.81), (0, 0, 0)))
+    assert time.monotonic() - began < 5.0  # the watchdog's 0.2 s, not the start timeout's 5 s
 
 
 def test_an_int_parameter_goes_as_int32_with_its_own_bytes_and_comes_back_as_its_value(board):

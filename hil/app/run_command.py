@@ -184,7 +184,9 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
                                        "added for the bench)")
     run.add_argument("--baud", type=int, help="serial baud rate where --port names none (default 921600)")
     run.add_argument("--connect-timeout", type=float, metavar="S",
-                     help="seconds to wait for a board you attached (default 60 for PX4 SITL, 10 for serial)")
+                     help="seconds the board has to send its first heartbeat, and a lockstep board (the emulator, PX4 "
+                          "SITL) for each silence until it has booted (default 60 for the emulator and a PX4 SITL you "
+                          "started, 30 for --px4 and --px4-hitl, 10 for serial)")
     run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
     run.add_argument("--speed-factor", type=float, default=1.0, metavar="N",
                      help="pace a lockstep board at N times the wall clock (as PX4_SIM_SPEED_FACTOR; PX4 SITL is told "

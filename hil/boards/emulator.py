@@ -68,6 +68,7 @@ def emulator_config(scenario: Scenario, rotors: RotorGeometry | None = None) -> 
 @dataclass(frozen=True)
 class EmulatorTarget:
     label = "emulator"
+    connect_timeout_s: float | None = None  # to its first heartbeat, and each silence while it boots (EMULATOR_START_S)
 
     def policy(self, scenario: Scenario) -> BoardPolicy:
         truth: GroundTruthUse = "to_fly" if scenario.board.state_source == "truth" else "none"
@@ -95,7 +96,7 @@ class EmulatorTarget:
                 raise BoardError(f"{note} before its first heartbeat")
 
         try:
-            session.wait_heartbeat(EMULATOR_START_S, still_starting=still_starting,
+            session.wait_heartbeat(self.connect_timeout_s or EMULATOR_START_S, still_starting=still_starting,
                                    hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
         except BaseException:
             handle.close()

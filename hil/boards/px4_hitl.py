@@ -28,6 +28,7 @@ HITL_POLICY = BoardPolicy("px4_hitl", "PX4 (its own estimator and controllers)",
 @dataclass(frozen=True)
 class Px4HitlTarget:
     build: Px4Build
+    connect_timeout_s: float | None = None  # for its first heartbeat (PX4_START_TIMEOUT_S)
 
     @property
     def label(self) -> str:
@@ -58,8 +59,9 @@ class Px4HitlTarget:
                              f"PX4 HITL rehearsal, instance {claim.number} ({self.build.root}) on {pair.slave_path}",
                              px4, px4_parameters(scenario, settings.rotors))
         try:
-            session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"is {self.build.root} a px4_sitl_nolockstep build? "
-                                   f"see {px4.log_path}", still_starting=px4.check_starting)
+            session.wait_heartbeat(self.connect_timeout_s or PX4_START_TIMEOUT_S,
+                                   hint=f"is {self.build.root} a px4_sitl_nolockstep build? see {px4.log_path}",
+                                   still_starting=px4.check_starting)
         except BaseException:
             handle.close()
             raise

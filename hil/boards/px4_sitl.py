@@ -52,6 +52,7 @@ def _reserve_simulator_port(instance: int) -> TcpServerTransport | None:
 @dataclass(frozen=True)
 class Px4SitlTarget:
     build: Px4Build
+    connect_timeout_s: float | None = None  # to connect, and for each silence while it boots (PX4_START_TIMEOUT_S)
 
     @property
     def label(self) -> str:
@@ -81,7 +82,8 @@ class Px4SitlTarget:
         try:
             commands = open_link(f"udpout:127.0.0.1:{BENCH_LINK_PORT + n}", tap=settings.tap)
             handle.command_session = BoardSession(commands, SIMULATED, watchdog_s=settings.watchdog_s)
-            session.wait_heartbeat(PX4_START_TIMEOUT_S, hint=f"PX4 did not connect; see {px4.log_path}",
+            session.wait_heartbeat(self.connect_timeout_s or PX4_START_TIMEOUT_S,
+                                   hint=f"PX4 did not connect; see {px4.log_path}",
                                    still_starting=px4.check_starting)
         except BaseException:
             handle.close()

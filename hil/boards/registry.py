@@ -29,14 +29,14 @@ class BoardOptions:
 
     mavlink: str | None = None  # a separate command link (a PX4 SITL started by hand)
     baud: int | None = None  # serial rate where the connection names none
-    connect_timeout_s: float | None = None  # how long a board the user attached has to speak
+    connect_timeout_s: float | None = None  # how long the board has to speak (and a lockstep one to boot)
     named_by: str = "board"
 
 
 def _emulator(rest: str, options: BoardOptions) -> BoardTarget:
     if rest:
         raise BoardSpecError(f"{options.named_by}: the emulator takes no argument (got '{rest}')")
-    return EmulatorTarget()
+    return EmulatorTarget(options.connect_timeout_s)
 
 
 def _px4_build(rest: str, options: BoardOptions) -> Px4Build:
@@ -61,8 +61,8 @@ def _attached(rest: str, options: BoardOptions) -> BoardTarget:
 
 KINDS: dict[str, Callable[[str, BoardOptions], BoardTarget]] = {
     "emulator": _emulator,
-    "px4": lambda rest, options: Px4SitlTarget(_px4_build(rest, options)),
-    "px4-hitl": lambda rest, options: Px4HitlTarget(_px4_build(rest, options)),
+    "px4": lambda rest, options: Px4SitlTarget(_px4_build(rest, options), options.connect_timeout_s),
+    "px4-hitl": lambda rest, options: Px4HitlTarget(_px4_build(rest, options), options.connect_timeout_s),
     "port": _attached,
 }
 

@@ -1,0 +1,52 @@
+"""How long a board may be silent before the bench gives up on it: the link watchdog, and the longer allowance of a
+lockstep board while it boots.
+
+A booting board's silence is not a hang. PX4 SITL starts its modules (processes of their own) in wall-clock time
+beside the first steps, and on a starved machine a step took over 1 s, as did the bench's own set-up between PX4's
+heartbeat and the first step (1.4-2.5 s with two flights at once on 2 cores). The limit then is the time the board
+had to send its first heartbeat (its start timeout, `--connect-timeout`): a board that never answers still ends the
+run. A board on its own clock (a Pixhawk, PX4's HITL path) streams from its boot on and gets no allowance.
+"""
+
+from __future__ import annotations
+
+from firmware_interface.board_requests import BoardError
+
+# A lockstep board's boot lasts until its replies reach this much simulated time past its first reply. PX4 SITL's
+# start-up script goes on starting modules after that reply (its MAVLink instances, then the logger, the last:
+# measured at 0.45-0.98 s simulated, two flights at once on 2 cores included); twice the latest. On simulated time,
+# so that a stall's verdict depends on where in the flight it falls, not on how fast the machine got there.
+BOOT_US = 2_000_000
+
+
+class LinkWatchdog:
+    """The silence limit of one link: `watchdog_s`, or while a lockstep board boots its start timeout if longer."""
+
+    def __init__(self, watchdog_s: float, lockstep_board: bool) -> None:
+        self.watchdog_s = watchdog_s
+        self.start_timeout_s: float | None = None  # the time the board had to start speaking (the handshake's)
+        self.booting = lockstep_board
+        self._boot_ends_us: int | None = None  # BOOT_US past the first reply
+
+    @property
+    def limit_s(self) -> float:
+        if self.booting and self.start_timeout_s is not None:
+            return max(self.start_timeout_s, self.watchdog_s)
+        return self.watchdog_s
+
+    def replied(self, t_us: int) -> None:
+        """A reply to the step at `t_us`: the boot ends with the one BOOT_US past the first."""
+        if self.booting:
+            if self._boot_ends_us is None:
+                self._boot_ends_us = t_us + BOOT_US
+            self.booting = t_us < self._boot_ends_us
+
+    def check(self, silent_s: float, link_name: str) -> None:
+        """BoardError, saying which limit, when the board has been silent longer than it may."""
+        limit = self.limit_s
+        if silent_s <= limit:
+            return
+        if limit > self.watchdog_s:
+            raise BoardError(f"board silent for {silent_s:.2f} s on {link_name} while it boots (allowed {limit:g} s, "
+                             f"its start timeout, until its replies span {BOOT_US / 1e6:g} s of simulated time)")
+        raise BoardError(f"board silent for {silent_s:.2f} s on {link_name} (watchdog {self.watchdog_s:.2f} s)")
