@@ -14,6 +14,8 @@ import sys
 import threading
 import time
 from collections import Counter
+from contextlib import suppress
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -23,8 +25,16 @@ from mcap.reader import make_reader
 from pymavlink import mavutil
 from pyulog import ULog
 
+from firmware_interface.board_watchdog import BOOT_US
+from hil.boards.px4 import Px4Build
+from hil.boards.px4_sitl import Px4SitlTarget
+from hil.exit_codes import EXIT_BOARD, EXIT_INTERRUPTED
+from hil.loop.frame import StepFrame
+from hil.loop.sink import FrameSink
 from hil.outputs.telemetry import subscribe
 from hil.outputs.zenoh_session import ZenohOptions
+from hil.run.runner import RunOptions, RunOutcome, run_scenario
+from hil.scenario.loader import load_scenario
 from tests.support.mavsdk_client import read_telemetry
 from tests.support.ports import free_port
 from tests.support.px4_builds import px4_root
@@ -293,3 +303,86 @@ def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
     assert not processes_using(run_dir)
     with open(run_dir / "recording.mcap", "rb") as f:
         assert make_reader(f).get_summary() is not None
+
+
+@dataclass
+class Px4Stall:
+    """A sink that stops PX4's whole process group (no CPU at all, as on a machine too busy for it) at the first
+    step `at_s` of simulated time past its first lockstep reply (None: at the first step, before any reply) for
+    `stall_s` (None: for good), and ends the run as Ctrl-C would once it has flown `fly_on_s` past the stall (None:
+    the run goes on until something else ends it)."""
+
+    runs: Path
+    at_s: float | None
+    stall_s: float | None
+    fly_on_s: float | None = None
+    frames: list[StepFrame] = field(default_factory=list)
+    first_reply_us: int | None = None
+    stalled_us: int | None = None
+    resume: threading.Timer | None = None
+
+    def __call__(self, frame: StepFrame) -> None:
+        self.frames.append(frame)
+        if self.first_reply_us is None and frame.round_trip_s is not None:  # the step was answered in lockstep
+            self.first_reply_us = frame.t_us
+        if self.stalled_us is None:
+            if self.at_s is None or (self.first_reply_us is not None
+                                     and frame.t_us - self.first_reply_us >= self.at_s * 1e6):
+                self._stop(frame.t_us)
+        elif self.fly_on_s is not None and frame.t_us - self.stalled_us >= self.fly_on_s * 1e6:
+            raise KeyboardInterrupt("the test flew far enough")
+
+    def _stop(self, t_us: int) -> None:
+        (daemon,) = [pid for pid, argv in live_processes().items()
+                     if argv[0].endswith("bin/px4") and str(self.runs.resolve()) in " ".join(argv)]
+        os.killpg(daemon, signal.SIGSTOP)
+        self.stalled_us = t_us
+        if self.stall_s is not None:
+            self.resume = threading.Timer(self.stall_s, self._continue, (daemon,))
+            self.resume.start()
+
+    @staticmethod
+    def _continue(daemon: int) -> None:
+        with suppress(ProcessLookupError):  # the run may have ended and stopped PX4 meanwhile
+            os.killpg(daemon, signal.SIGCONT)
+
+    def fly(self, sitl: Path, scenario: Path, connect_timeout_s: float | None = None) -> RunOutcome:
+        board = Px4SitlTarget(Px4Build.locate(sitl, "--px4"), connect_timeout_s)
+        try:
+            return run_scenario(load_scenario(scenario), RunOptions(board=board, runs_root=self.runs, telemetry=None,
+                                                                    gcs=[]), sinks=[FrameSink(self)])
+        finally:
+            if self.resume is not None:
+                self.resume.join()
+
+
+STALL_S = 1.5  # longer than the link watchdog's 1 s
+
+
+def test_px4_stalled_in_its_boot_is_waited_for(sitl, tmp_path):
+    """PX4 SITL starts its modules beside the first steps; on a starved machine it (and the bench's own set-up) took
+    over 1 s, and the 1 s watchdog ended the run. A stall right after PX4's first lockstep reply is waited for: until
+    its replies span BOOT_US of simulated time the limit is its start timeout. The run flies on past its boot."""
+    stall = Px4Stall(tmp_path / "runs", at_s=0.0, stall_s=STALL_S, fly_on_s=BOOT_US / 1e6 + 0.5)
+    outcome = stall.fly(sitl, short_hover(tmp_path))
+    assert (outcome.exit_code, outcome.reason) == (EXIT_INTERRUPTED, "interrupted (the test flew far enough)")
+    assert max(f.step_wall_s for f in stall.frames) > 1.2  # the bench really waited out a silence over the watchdog
+
+
+def test_the_same_stall_after_px4s_boot_trips_the_watchdog(sitl, tmp_path):
+    stall = Px4Stall(tmp_path / "runs", at_s=BOOT_US / 1e6 + 0.2, stall_s=STALL_S)
+    outcome = stall.fly(sitl, short_hover(tmp_path))
+    assert outcome.exit_code == EXIT_BOARD, outcome.reason
+    assert "board silent for" in outcome.reason and "(watchdog 1.00 s)" in outcome.reason
+    assert stall.stalled_us is not None and stall.frames[-1].t_us - stall.stalled_us <= 8000  # it ended there
+    assert not processes_using(tmp_path / "runs")
+
+
+def test_px4_that_never_answers_ends_the_run_after_its_start_timeout_leaving_nothing_behind(sitl, tmp_path):
+    never = Px4Stall(tmp_path / "runs", at_s=None, stall_s=None)
+    outcome = never.fly(sitl, short_hover(tmp_path), connect_timeout_s=3.0)
+    assert outcome.exit_code == EXIT_BOARD, outcome.reason
+    assert "board silent for" in outcome.reason and "while it boots (allowed 3 s, its start timeout" in outcome.reason
+    assert never.first_reply_us is None  # stopped before its first reply, it never answered
+    assert not processes_using(tmp_path / "runs")
+    assert "while it boots" in summary_field((outcome.run_dir / "summary.txt").read_text(), "ended")
