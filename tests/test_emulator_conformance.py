@@ -6,6 +6,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,11 +17,15 @@ from firmware_interface.board_waits import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
+from hil.boards.registry import board_target
+from hil.boards.target import LinkSettings
+from hil.scenario.loader import load_scenario
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
 G = 9.80665
+ROOT = Path(__file__).resolve().parent.parent
 
 
 @pytest.fixture
@@ -103,6 +108,28 @@ def test_heartbeat_with_hil_enabled_within_one_second_then_at_1_hz():
     bench.close()
     assert beats and beats[0] < 1.0
     assert len(beats) in (3, 4)  # t = 0, 1, 2 (and 3) s
+
+
+def test_the_emulator_the_bench_starts_sends_nothing_on_the_wall_clock_before_its_first_sensor_frame(tmp_path):
+    """Its heartbeats before the first HIL_SENSOR came each wall-clock second; under load one came after the bench's
+    pre-step drain and was recorded in step 1, changing the recording's digest. Attached by the bench (which holds
+    the pty from before the emulator starts, and talks on it meanwhile), it sends the one the attach waits for, then
+    heartbeats only on the simulation clock: step 1 holds exactly one."""
+    handle = board_target("emulator").attach(load_scenario(ROOT / "scenarios" / "hover.yaml"), tmp_path,
+                                             LinkSettings())
+    try:
+        session = handle.hil_session
+        session.take_inbox()  # the heartbeat the attach waited for
+        quiet_until = time.monotonic() + 2.2  # a heartbeat a wall-clock second would have come twice
+        while time.monotonic() < quiet_until:
+            session.service()  # the bench's own heartbeat each second: the emulator hears the bench
+            session.poll(0.05)
+        assert [m.get_type() for m in session.take_inbox()] == []
+        reply = RestingVehicle().step(session)
+        assert reply is not None and reply.t_us == 4000
+        assert [m.get_type() for m in session.take_inbox()].count("HEARTBEAT") == 1  # the simulation clock's first
+    finally:
+        handle.close()
 
 
 def test_emulator_exits_when_the_bench_closes_the_pty(emulator):

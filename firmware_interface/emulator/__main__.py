@@ -26,6 +26,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--airframe", choices=AIRFRAME_NAMES, help="nominal vehicle preset")
     parser.add_argument("--state-source", choices=("estimator", "truth"), help="truth = fly on HIL_STATE_QUATERNION")
     parser.add_argument("--config", type=Path, help="YAML file with EmulatorConfig fields")
+    parser.add_argument("--one-boot-heartbeat", action="store_true",
+                        help="before the first HIL_SENSOR send one HEARTBEAT, not one each wall-clock second: for a "
+                             "peer that holds the port before the emulator starts and waits for it (the bench's pty), "
+                             "so that nothing the emulator sends depends on the wall clock")
     return parser
 
 
@@ -48,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
     compile_flight_code(config)  # before the first heartbeat, so the bench's start-up wait covers it
-    board = EmulatedBoard(link, config)
+    board = EmulatedBoard(link, config, repeat_boot_heartbeat=not args.one_boot_heartbeat)
     gc.freeze()  # start-up objects live to the end: a full collection over them stalls the loop ~10s of ms
     reason = board.run(lambda: stopping)
     link.close()

@@ -1,7 +1,8 @@
 """The emulated flight controller: PX4's HIL protocol on one side, the paper's controllers inside, and to a
 ground station what PX4 answers it (modes, commands, missions, parameters, telemetry).
 
-Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, its multirotor type, HIL_ENABLED), takes
+Like PX4 with SYS_HITL=1 it sends a 1 Hz HEARTBEAT (autopilot PX4, its multirotor type, HIL_ENABLED; before the
+first HIL_SENSOR on the wall clock, or only once for a peer that waits on the port from the start), takes
 HIL_SENSOR / HIL_GPS (and, as truth when configured, ODOMETRY in the local frame at float precision, or
 PX4 SITL's HIL_STATE_QUATERNION, whose integer lat/lon, mm and cm/s quantise it) and answers each
 HIL_SENSOR with exactly one HIL_ACTUATOR_CONTROLS (lockstep flag set, time_usec echoed, as PX4 SITL does).
@@ -72,10 +73,15 @@ STATUSTEXT_CHUNK = 50
 
 
 class EmulatedBoard(Flight):
-    def __init__(self, link: Link, config: EmulatorConfig, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, link: Link, config: EmulatorConfig, clock: Callable[[], float] = time.monotonic,
+                 repeat_boot_heartbeat: bool = True) -> None:
         self.link = link
         self.config = config
         self.clock = clock
+        # before the first HIL_SENSOR: a heartbeat each wall-clock second, for a peer that may come at any time;
+        # False: only the first, for a peer that holds the port before the emulator starts and waits for it (the
+        # bench's pty). Its later ones could fall after the bench's pre-step drain, into a recorded step.
+        self.repeat_boot_heartbeat = repeat_boot_heartbeat
         self.link.encoder.system_id = config.system_id
         self.link.encoder.component_id = 1
         self.controller = make_controller(config)
@@ -87,7 +93,7 @@ class EmulatedBoard(Flight):
         self.last_fix_us = 0
         self.last_sensor_t_us: int | None = None
         self.last_sensor_wall = clock()
-        self.last_heartbeat = -1e9
+        self.last_heartbeat: float | None = None  # wall-clock time of the last boot heartbeat
         self.boot_us: int | None = None
         self.last_output: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
         self.last_control: ControlOutput | None = None
@@ -125,7 +131,9 @@ class EmulatedBoard(Flight):
 
     def _housekeeping(self) -> None:
         now = self.clock()
-        if self.last_sensor_t_us is None and now - self.last_heartbeat >= 1.0:  # no simulation clock yet
+        last = self.last_heartbeat
+        boot_beat = last is None or (self.repeat_boot_heartbeat and now - last >= 1.0)
+        if self.last_sensor_t_us is None and boot_beat:  # no simulation clock yet
             self.telemetry.heartbeat()
             self.last_heartbeat = now
         if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:

@@ -81,8 +81,10 @@ class EmulatorTarget:
         config_path.write_text(yaml.safe_dump(emulator_config(scenario, settings.rotors), sort_keys=False))
         pair = open_pty_pair()
         log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
+        # one boot heartbeat: the bench holds the pty from before the emulator starts and waits for it; more, on the
+        # wall clock, could land after the pre-step drain in a recorded step
         popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
-                                  "--config", str(config_path)], stdout=log, stderr=log,
+                                  "--config", str(config_path), "--one-boot-heartbeat"], stdout=log, stderr=log,
                                  start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
         session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
                                reversible_motors=settings.reversible_motors,
