@@ -2,8 +2,9 @@
 lockstep board while it boots.
 
 A booting board's silence is not a hang. PX4 SITL starts its modules (processes of their own) in wall-clock time
-beside the first steps, and on a starved machine a step took over 1 s, as did the bench's own set-up between PX4's
-heartbeat and the first step (1.4-2.5 s with two flights at once on 2 cores). The limit then is the time the board
+beside the first steps, and on a starved machine its silence before its first replies passed 1 s ("silent 1.01 s at
+0.04 s simulated"), as did the bench's own set-up between PX4's heartbeat and the first step (1.4-2.5 s measured
+with two flights at once on 2 cores). The limit then is the time the board
 had to send its first heartbeat (its start timeout, `--connect-timeout`): a board that never answers still ends the
 run. A board on its own clock (a Pixhawk, PX4's HITL path) streams from its boot on and gets no allowance.
 """
