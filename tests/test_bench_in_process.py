@@ -146,8 +146,9 @@ def test_a_paced_step_that_starts_late_because_its_sleep_overslept_counts_as_lat
     9 ms and once by 30 ms. The loop sleeps to 0.3 ms before a deadline and spins, so those steps start ~8.7
     and ~29.7 ms after their deadlines, more than the 4 ms period: late steps, that far behind. 9 ms is caught
     up (the next step is late too, then none); 30 ms is over the 20 ms slip, so the schedule goes on from the
-    late step: one slip, and the steps after it on time."""
-    scenario = hover(tmp_path, 2.0)
+    late step: one slip, and the steps after it on time. The stalls are in the first 1.2 s of the hold: the flight
+    ends at 1.5 s and disarms where it is (landing would be ~7 s more of wall clock, on which nothing is judged)."""
+    scenario = hover(tmp_path, 1.5, end="disarm")
     board_for.append(board := ThreadBoard(scenario))
     frames: list[StepFrame] = []
     real_sleep, stalls = time.sleep, {0.5: 0.009, 1.2: 0.030}

@@ -94,8 +94,11 @@ def test_five_percent_loss_and_latency_are_ridden_through_with_the_figures_in_me
 
 
 def test_a_one_second_outage_fires_the_emulators_failsafe_and_ends_the_run_with_the_reason(tmp_path):
+    # the outage 0.5 s into the hold at 3 m (the mission clock starts at the top of the take-off): in flight, and
+    # on the wall clock (link faults pace the run in real time) as soon as the vehicle is up
     run, metrics = fly(tmp_path, "name: outage\nduration_s: 8\nseed: 5\nreference: {type: hover, altitude_m: 3}\n"
-                                 "faults:\n  link:\n    - {kind: outage, direction: to_board, start_s: 3, end_s: 4}\n")
+                                 "faults:\n  link:\n"
+                                 "    - {kind: outage, direction: to_board, start_s: 0.5, end_s: 1.5}\n")
     assert run.returncode == 1, run.stdout + run.stderr
     ended = summary_field(run.stdout, "ended")
     assert "the board disarmed in flight" in ended and "Failsafe: no HIL_SENSOR" in ended
