@@ -15,7 +15,8 @@ from pathlib import Path
 
 import pytest
 
-from hil.outputs.telemetry import DEFAULT_RATES_HZ, fetch_meta
+from hil.loop.sink import Outcome
+from hil.outputs.telemetry import DEFAULT_RATES_HZ, TelemetryPublisher, fetch_meta
 from hil.outputs.zenoh_session import ZenohOptions, open_session
 from tests.support.cli_runs import wait_flying
 from tests.support.ports import free_port, wait_listening
@@ -209,3 +210,27 @@ def test_watch_of_a_run_that_is_not_running_honours_wait(tmp_path):
     assert watch.returncode == 1
     assert "is not running (unknown, or it has ended) within 2 s" in watch.stderr
     assert time.monotonic() - started < 30  # it gave up after --wait, it did not hang (seen: 10 min)
+
+
+def test_the_run_flushes_its_last_samples_only_when_a_subscriber_listens():
+    """`heard()` decides whether the close waits FLUSH_S for the summary to leave: false with nobody on the
+    network, true once a subscriber in another session matches one of the run's channels."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    bench_session = open_session(ZenohOptions(listen=[endpoint], multicast_scouting=False))
+    publisher = TelemetryPublisher(bench_session, "20990101T000000.000000Z-heard", {"scenario": "heard"})
+    viewer = open_session(ZenohOptions(connect=[endpoint], multicast_scouting=False))
+    try:
+        assert not publisher.heard()
+        subscriber = viewer.declare_subscriber("hil/20990101T000000.000000Z-heard/summary", lambda sample: None)
+        deadline = time.monotonic() + 10
+        while not publisher.heard() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert publisher.heard()
+        subscriber.undeclare()
+        deadline = time.monotonic() + 10
+        while publisher.heard() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not publisher.heard()
+    finally:
+        viewer.close()
+        publisher.close(Outcome(0, {}, ""))

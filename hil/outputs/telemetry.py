@@ -114,13 +114,19 @@ class TelemetryPublisher:
         self._publishers[channel].put(orjson.dumps(payload, option=orjson.OPT_SERIALIZE_NUMPY))
         self.published += 1
 
+    def heard(self) -> bool:
+        """Whether a subscriber matches any channel now: with none, nothing is left to flush to anyone (and a run
+        nobody watches, every test's and sweep sample's, ends FLUSH_S sooner)."""
+        return any(_matched(publisher) for publisher in self._publishers.values())
+
     def close(self, outcome: Outcome) -> None:
         """The summary to subscribers, then undeclare everything and close the session (zenoh-python can hang
         on exit otherwise), in bounded time: a stopped or stalled subscriber can hold a put or the session's close
         for many seconds, and the bench does not wait for it."""
         def finish() -> None:
             self._put("summary", {"t_us": outcome.t_us, "metrics": outcome.metrics, "text": outcome.summary})
-            time.sleep(FLUSH_S)  # the last samples (summary, final events) leave before the token goes
+            if self.heard():  # the last samples (summary, final events) leave before the token goes
+                time.sleep(FLUSH_S)
             self._token.undeclare()
             self._queryable.undeclare()
             for publisher in self._publishers.values():
@@ -128,6 +134,13 @@ class TelemetryPublisher:
             self.session.close()
 
         close_within(finish, ZENOH_CLOSE_S)
+
+
+def _matched(publisher: zenoh.Publisher) -> bool:
+    """Whether a subscriber matches the publisher's key now. zenoh-python 1.x returns a MatchingStatus (its stub
+    says bool, and the object itself is always true)."""
+    status: Any = publisher.matching_status
+    return bool(status.matching)
 
 
 def open_output(context: OutputContext) -> TelemetryPublisher | None:
