@@ -10,12 +10,12 @@ import asyncio
 import socket
 import threading
 import time
-import warnings
+from typing import Any
 
 import pytest
 
 from tests.support.emulator_world import World
-from tests.support.mavsdk_client import free_tcp_port
+from tests.support.mavsdk_client import free_tcp_port, new_system, stop_server
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 SPEED = 2.0  # simulated seconds per wall-clock second
@@ -56,11 +56,15 @@ class RelayedWorld(threading.Thread):
 
 
 async def takeoff_and_land(port: int, relay: RelayedWorld) -> dict[str, object]:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", FutureWarning)
-        from mavsdk import System
-    drone = System(port=free_tcp_port())
-    await drone.connect(system_address=f"udpin://127.0.0.1:{port}")
+    drone = new_system()
+    try:
+        await drone.connect(system_address=f"udpin://127.0.0.1:{port}")
+        return await fly_takeoff_and_land(drone, relay)
+    finally:
+        stop_server(drone)
+
+
+async def fly_takeoff_and_land(drone: Any, relay: RelayedWorld) -> dict[str, object]:
     async for health in drone.telemetry.health():
         if health.is_global_position_ok and health.is_local_position_ok and health.is_home_position_ok \
                 and health.is_armable:

@@ -11,15 +11,38 @@ from typing import Any
 def free_tcp_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        return int(s.getsockname()[1])
 
 
-async def _read(udp_port: int, want_status_text: bool) -> dict[str, Any]:
+def new_system() -> Any:
+    """A MAVSDK System with a mavsdk_server of its own (on a free gRPC port), started at its `connect`."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FutureWarning)  # MAVSDK 3 asks to be pinned below 4: it is
         from mavsdk import System
-    drone = System(port=free_tcp_port())
-    await drone.connect(system_address=f"udpin://127.0.0.1:{udp_port}")
+    return System(port=free_tcp_port())
+
+
+def stop_server(drone: Any) -> None:
+    """Stop the System's mavsdk_server now, and reap it. MAVSDK-Python stops it in `System.__del__`, which runs only
+    when the garbage collector gets to the System (the tasks that follow its streams hold it in a cycle): a server
+    left running keeps its UDP port, the next test's server binds the port beside it (SO_REUSEPORT), and PX4's
+    datagrams went to the old one (a CI run then waited out the flight's 15 min timeout)."""
+    process = drone._server_process
+    drone._stop_mavsdk_server()
+    if process is not None:
+        process.wait(10)
+
+
+async def _read(udp_port: int, want_status_text: bool) -> dict[str, Any]:
+    drone = new_system()
+    try:
+        await drone.connect(system_address=f"udpin://127.0.0.1:{udp_port}")
+        return await _what_it_reads(drone, want_status_text)
+    finally:
+        stop_server(drone)
+
+
+async def _what_it_reads(drone: Any, want_status_text: bool) -> dict[str, Any]:
     async for state in drone.core.connection_state():
         if state.is_connected:
             break

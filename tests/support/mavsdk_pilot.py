@@ -13,16 +13,16 @@ from __future__ import annotations
 
 import asyncio
 import math
-import socket
 import time
 import warnings
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from tests.support.mavsdk_client import new_system, stop_server
+
 with warnings.catch_warnings():
     warnings.simplefilter("ignore", FutureWarning)  # MAVSDK 3 asks to be pinned below 4: it is
-    from mavsdk import System
     from mavsdk.mission import MissionError, MissionItem, MissionPlan
     from mavsdk.offboard import OffboardError, PositionNedYaw
     from mavsdk.telemetry import LandedState
@@ -56,12 +56,6 @@ class Findings:
         return ok
 
 
-def free_tcp_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def local_ned(lat_deg: float, lon_deg: float, origin: tuple[float, float]) -> tuple[float, float]:
     """North and east of `origin` (lat, lon), m, on a plane tangent at it."""
     north = math.radians(lat_deg - origin[0]) * EARTH_RADIUS_M
@@ -89,7 +83,7 @@ class MavsdkTester:
 
     def __init__(self, findings: Findings) -> None:
         self.findings = findings
-        self.drone = System(port=free_tcp_port())
+        self.drone = new_system()
         self.vehicle_us = 0  # ATTITUDE_QUATERNION's timestamp: the vehicle's clock
         self.latest: dict[str, Any] = {}
         self._tasks: list[asyncio.Task[None]] = []
@@ -131,6 +125,7 @@ class MavsdkTester:
         for task in self._tasks:
             task.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
+        stop_server(self.drone)
 
     # --- the steps of autopilot_tester.cpp --------------------------------------------------
     async def _connected(self) -> None:
