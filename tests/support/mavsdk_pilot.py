@@ -90,9 +90,8 @@ class MavsdkTester:
 
     # --- connection and the vehicle's clock ----------------------------------------------
     async def connect(self, url: str) -> None:
-        await self.drone.connect(system_address=url)
-        try:  # autopilot_tester.cpp: a system within 25 s (bounded even if MAVSDK never reports a state)
-            await asyncio.wait_for(self._connected(), 25)
+        try:  # autopilot_tester.cpp: a system within 25 s (bounded even if mavsdk_server never answers or reports)
+            await asyncio.wait_for(self._connected(url), 25)
         except TimeoutError:
             raise Required(f"no system connected on {url} within 25 s") from None
         for name, stream in (("attitude", self.drone.telemetry.attitude_quaternion()),
@@ -128,7 +127,8 @@ class MavsdkTester:
         stop_server(self.drone)
 
     # --- the steps of autopilot_tester.cpp --------------------------------------------------
-    async def _connected(self) -> None:
+    async def _connected(self, url: str) -> None:
+        await self.drone.connect(system_address=url)
         async for state in self.drone.core.connection_state():
             if state.is_connected:
                 return
