@@ -99,6 +99,9 @@ RUN_OPTIONS = {
     "gcs_unresolvable": (["--gcs", "udpout:notahost:14550"], "--gcs udpout:notahost:14550: cannot resolve host"),
     "mavlink_unresolvable": (["--mavlink", "udpout:nohost.invalid:1"], "--mavlink udpout:nohost.invalid:1: cannot"),
     "gcs_port": (["--gcs", "udpout:127.0.0.1:70000"], "--gcs udpout:127.0.0.1:70000: bad port"),
+    "connect_timeout_zero": (["--connect-timeout", "0"], "--connect-timeout 0: expected seconds above 0"),
+    "connect_timeout_negative": (["--connect-timeout", "-3"], "--connect-timeout -3: expected seconds above 0"),
+    "connect_timeout_nan": (["--connect-timeout", "nan"], "--connect-timeout nan: expected seconds above 0"),
 }
 
 

@@ -20,7 +20,8 @@ MAX_COMPARE_SEEDS = 1000  # flights per controller: a comparison past this is a 
 
 def run_input_problems(args: argparse.Namespace) -> list[str]:
     """`hil run`'s options outside the board choice that cannot be used, one line each, before anything starts."""
-    return [p for p in (_runs_problem(args), _baud_problem(args), *_endpoint_problems(args)) if p]
+    return [p for p in (_runs_problem(args), _baud_problem(args), _connect_timeout_problem(args),
+                        *_endpoint_problems(args)) if p]
 
 
 def _runs_problem(args: argparse.Namespace) -> str | None:
@@ -35,6 +36,15 @@ def _baud_problem(args: argparse.Namespace) -> str | None:
         return None
     return (f"--baud {args.baud}: not a serial baud rate; expected one of {', '.join(map(str, SerialBase.BAUDRATES))}"
             " (PX4's USB and TELEM ports: 57600, 115200, 921600)")
+
+
+def _connect_timeout_problem(args: argparse.Namespace) -> str | None:
+    """A board needs some time to speak: 0 or less (or NaN) is not a timeout, and would have fallen back to the
+    default unsaid."""
+    timeout = args.connect_timeout
+    if timeout is None or timeout > 0:
+        return None
+    return f"--connect-timeout {timeout:g}: expected seconds above 0"
 
 
 def _endpoint_problems(args: argparse.Namespace) -> list[str]:
