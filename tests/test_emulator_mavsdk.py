@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 
 from tests.support.emulator_world import World
-from tests.support.mavsdk_client import free_tcp_port, new_system, stop_server
+from tests.support.mavsdk_client import connected_system, free_tcp_port
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 SPEED = 2.0  # simulated seconds per wall-clock second
@@ -56,12 +56,8 @@ class RelayedWorld(threading.Thread):
 
 
 async def takeoff_and_land(port: int, relay: RelayedWorld) -> dict[str, object]:
-    drone = new_system()
-    try:
-        await drone.connect(system_address=f"udpin://127.0.0.1:{port}")
+    async with connected_system(port) as drone:
         return await fly_takeoff_and_land(drone, relay)
-    finally:
-        stop_server(drone)
 
 
 async def fly_takeoff_and_land(drone: Any, relay: RelayedWorld) -> dict[str, object]:

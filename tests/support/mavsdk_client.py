@@ -5,6 +5,8 @@ from __future__ import annotations
 import asyncio
 import socket
 import warnings
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from typing import Any
 
 
@@ -33,13 +35,20 @@ def stop_server(drone: Any) -> None:
         process.wait(10)
 
 
-async def _read(udp_port: int, want_status_text: bool) -> dict[str, Any]:
+@asynccontextmanager
+async def connected_system(udp_port: int) -> AsyncIterator[Any]:
+    """A MAVSDK System listening on udpin:127.0.0.1:PORT, its mavsdk_server stopped on the way out."""
     drone = new_system()
     try:
         await drone.connect(system_address=f"udpin://127.0.0.1:{udp_port}")
-        return await _what_it_reads(drone, want_status_text)
+        yield drone
     finally:
         stop_server(drone)
+
+
+async def _read(udp_port: int, want_status_text: bool) -> dict[str, Any]:
+    async with connected_system(udp_port) as drone:
+        return await _what_it_reads(drone, want_status_text)
 
 
 async def _what_it_reads(drone: Any, want_status_text: bool) -> dict[str, Any]:
