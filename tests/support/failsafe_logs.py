@@ -73,15 +73,20 @@ def last_sent_us(frames: list[Frame], kind: str, before_us: int | None = None) -
 
 
 class Px4Log:
-    """PX4's ULog of the run, its times moved onto the bench's clock by the arming (equal in SITL's lockstep, where
-    PX4's clock is the bench's; an offset of the wall clocks on PX4's HITL path)."""
+    """PX4's ULog of the run, its times on the bench's clock. In SITL's lockstep PX4's clock is the bench's (PX4
+    sets it from each HIL_SENSOR's time_usec), so they are taken as they are; on PX4's HITL path the two wall
+    clocks are matched at the arming. (Matching them at the arming in lockstep too added the delay of PX4's
+    "Armed" message, one step alone and up to 0.2 s beside another flight: PX4's MAVLink thread is not part of its
+    lockstep.)"""
 
     def __init__(self, run_dir: Path, topics: list[str]) -> None:
         (path,) = sorted((run_dir / "px4" / "log").rglob("*.ulg"))
         self.ulog = ULog(str(path), ["vehicle_status", *topics])
-        status = self.data("vehicle_status")
-        armed = int(np.argmax(status["arming_state"] == ARMED))
-        self.offset_us = event_us(run_dir, "board: Armed") - int(status["timestamp"][armed])
+        self.offset_us = 0
+        if json.loads((run_dir / "meta.json").read_text())["pacing"] != "lockstep":
+            status = self.data("vehicle_status")
+            armed = int(np.argmax(status["arming_state"] == ARMED))
+            self.offset_us = event_us(run_dir, "board: Armed") - int(status["timestamp"][armed])
 
     def data(self, topic: str, instance: int = 0) -> dict[str, np.ndarray]:
         return self.ulog.get_dataset(topic, instance).data
