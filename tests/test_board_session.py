@@ -17,7 +17,8 @@ from tests.support.scripted_board import ScriptedBoard
 READINGS = codec.SensorReadings(0, (0.0, 0.0, -9.81), (0.0, 0.0, 0.0))
 # floats, as the plant gives them: once a flight's warm-up froze the compiled packers (an earlier test in this
 # process), tuples of ints would be an argument type they refuse
-TRUTH = codec.GroundTruth(0, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 47.4, 8.5, 488.0, (0.0, 0.0, 0.0), (0.0, 0.0, -9.81))
+TRUTH = codec.GroundTruth(0, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 47.4, 8.5, 488.0, (0.0, 0.0, 0.0),
+                          (0.0, 0.0, -9.81))
 
 
 @pytest.fixture
