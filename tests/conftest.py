@@ -4,6 +4,9 @@ flown once per session for every test that judges that flight."""
 
 from __future__ import annotations
 
+import fcntl
+import json
+import os
 import shutil
 import subprocess
 from collections.abc import Callable
@@ -48,15 +51,41 @@ def foreign_mapping(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="session")
 def shipped_flight(tmp_path_factory) -> Callable[[Path], tuple[subprocess.CompletedProcess[str], Path]]:
-    """A shipped scenario flown once (as a user runs it: `hil run FILE`), its process and run directory."""
+    """A shipped scenario flown once (as a user runs it: `hil run FILE`), its process and run directory. Once per
+    test session, not per pytest-xdist worker: the first worker to need a flight flies it under a file lock in the
+    session's shared temporary directory, and the other reads that run (tests in four files read the same flights,
+    and two workers flew them twice: ~2 min of CPU)."""
+    shared = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        shared = shared.parent  # pytest-N/popen-gwK: the session's directory, one for its workers
     flights: dict[Path, tuple[subprocess.CompletedProcess[str], Path]] = {}
 
     def flight(scenario: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
         if scenario not in flights:
-            # no ground-station relay: a GCS answering on UDP 14550 (another run, QGroundControl) would inject
-            # commands, and their ACKs would be recorded
-            options = ("--no-gcs",) if scenario.stem == REPORTED else ("--no-gcs", "--no-report")
-            flights[scenario] = run(scenario, tmp_path_factory.mktemp(scenario.stem), *options)
+            home = shared / "shipped-flights" / scenario.stem
+            home.mkdir(parents=True, exist_ok=True)
+            with open(home.parent / f"{scenario.stem}.lock", "w") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, or the worker dies
+                flights[scenario] = flown_before(home) or fly_shipped(scenario, home)
         return flights[scenario]
 
     return flight
+
+
+def fly_shipped(scenario: Path, home: Path) -> tuple[subprocess.CompletedProcess[str], Path]:
+    # no ground-station relay: a GCS answering on UDP 14550 (another run, QGroundControl) would inject
+    # commands, and their ACKs would be recorded
+    options = ("--no-gcs",) if scenario.stem == REPORTED else ("--no-gcs", "--no-report")
+    result, run_dir = run(scenario, home / "runs", *options)
+    process = {"args": result.args, "returncode": result.returncode, "stdout": result.stdout, "stderr": result.stderr}
+    (home / "process.json").write_text(json.dumps({**process, "run_dir": str(run_dir)}))
+    return result, run_dir
+
+
+def flown_before(home: Path) -> tuple[subprocess.CompletedProcess[str], Path] | None:
+    """The flight another worker of this session made, as it left it; None if none did."""
+    if not (home / "process.json").exists():
+        return None
+    process = json.loads((home / "process.json").read_text())
+    run_dir = Path(process.pop("run_dir"))
+    return subprocess.CompletedProcess(**process), run_dir

@@ -165,7 +165,13 @@ def fly_through_the_relay(tmp_path: Path, *board: str) -> None:
     api_port, gcs_port = free_udp_port(), free_udp_port()
     bench = start_bench(scenario(tmp_path, "mavsdk_relayed", expect, square_items()), tmp_path / "runs", *board,
                         "--gcs", f"udpout:127.0.0.1:{api_port}", "--gcs", f"udpout:127.0.0.1:{gcs_port}")
-    station = SecondGroundStation(f"udpin:127.0.0.1:{gcs_port}", 1)
+    try:  # PX4's instance N is MAVLink system N+1: not 1 when another test's PX4 holds instance 0
+        vehicle = px4_instance(tmp_path / "runs") + 1 if "--px4-hitl" in board else 1
+    except AssertionError:
+        bench.send_signal(signal.SIGINT)  # no PX4 to fly: the bench ends its run as on Ctrl-C
+        bench.communicate(timeout=60)
+        raise
+    station = SecondGroundStation(f"udpin:127.0.0.1:{gcs_port}", vehicle)
     station.start()
 
     async def flight(tester: MavsdkTester) -> None:
