@@ -53,7 +53,7 @@ def foreign_mapping(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def shipped_flight(tmp_path_factory) -> Callable[[Path], tuple[subprocess.CompletedProcess[str], Path]]:
     """A shipped scenario flown once (as a user runs it: `hil run FILE`), its process and run directory. Once per
     test session, not per pytest-xdist worker: the first worker to need a flight flies it under a file lock in the
-    session's shared temporary directory, and the other reads that run (tests in four files read the same flights,
+    session's shared temporary directory, and the other reads that run (tests in five files read the same flights,
     and two workers flew them twice: ~2 min of CPU)."""
     shared = tmp_path_factory.getbasetemp()
     if os.environ.get("PYTEST_XDIST_WORKER"):
