@@ -4,6 +4,7 @@ sleeps 50 ms in its callback for every sample: publishing must not slow the loop
 from __future__ import annotations
 
 import json
+import signal
 import socket
 import subprocess
 import sys
@@ -13,8 +14,11 @@ from pathlib import Path
 
 from run_timing import ROOT, benchmark_parser, scenario_file
 
+# The subscriber is stopped with SIGINT (as its `except KeyboardInterrupt` expects): its handler is set here, as
+# a benchmark started in a script's background (SIGINT ignored, and inherited) would otherwise never stop it.
 SLOW_SUBSCRIBER = """
-import sys, time
+import signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)
 sys.path.insert(0, {root!r})
 from hil.outputs.telemetry import subscribe
 from hil.outputs.zenoh_session import ZenohOptions
@@ -57,10 +61,14 @@ def main() -> None:
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         subscriber = subprocess.Popen([sys.executable, "-c", SLOW_SUBSCRIBER.format(root=str(ROOT), endpoint=endpoint)],
                                       stdout=subprocess.PIPE, text=True)
-        time.sleep(2.0)
-        loaded = run(scenario, endpoint)
-    subscriber.send_signal(2)
-    received = subscriber.communicate(timeout=30)[0].strip()
+        try:
+            time.sleep(2.0)
+            loaded = run(scenario, endpoint)
+            subscriber.send_signal(signal.SIGINT)
+            received = subscriber.communicate(timeout=30)[0].strip()
+        finally:
+            subscriber.kill()  # nothing if it has ended; a failed run or a hung subscriber leaves no process
+            subscriber.wait()
     print("telemetry load, scenarios/hover.yaml on the emulator (lockstep)")
     print(f"  no subscriber                         : {alone:5.2f}x real time")
     print(f"  a subscriber sleeping 50 ms per sample: {loaded:5.2f}x real time "

@@ -1,17 +1,21 @@
 """Shared fixtures: the FMU built once per test session from the committed sources, PX4's builds unpacked once
 (HIL_PX4_DIR), the foreign plant (tests/data/foreign_plant) exported by pythonfmu once, and each shipped scenario
-flown once per session for every test that judges that flight."""
+flown once per session for every test that judges that flight. Every test's processes end with it, and they start
+with a terminal's signal dispositions however pytest was started."""
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import json
 import os
 import shutil
+import signal
 import subprocess
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
+import psutil
 import pytest
 
 from plant_fmu.build import ensure_fmu
@@ -19,6 +23,32 @@ from tests.support.cli_runs import REPORTED, run
 from tests.support.px4_builds import px4_build, px4_root
 
 FOREIGN_PLANT = Path(__file__).parent / "data" / "foreign_plant"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """A shell starts a background job (`make test &` in a script: job control off) with SIGINT and SIGQUIT
+    ignored, and every process a test starts would inherit that: a test that stops a child with SIGINT, as a
+    user's Ctrl-C does, would wait for nothing (measured: three tests timed out this way). The tests' children
+    get a terminal's defaults instead (a Python handler is not inherited through exec)."""
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGQUIT) == signal.SIG_IGN:
+        signal.signal(signal.SIGQUIT, signal.SIG_DFL)
+
+
+@pytest.fixture(autouse=True)
+def no_process_left_behind() -> Iterator[None]:
+    """What a test started and left running (a bench, a subscriber, a board of a test that failed halfway) is
+    killed after it with everything it started, so it cannot load the machine or hold a port for the tests after
+    it. Processes of wider fixtures are started before this snapshot and kept."""
+    me = psutil.Process()
+    before = {child.pid for child in me.children(recursive=True)}
+    yield
+    left = [child for child in me.children(recursive=True) if child.pid not in before]
+    for child in left:
+        with contextlib.suppress(psutil.NoSuchProcess):
+            child.kill()
+    psutil.wait_procs(left, timeout=10)
 
 
 @pytest.fixture(scope="session")
