@@ -4,6 +4,7 @@ board is one line. The emulator kind attaches and leaves nothing behind."""
 from __future__ import annotations
 
 import os
+import socket
 from pathlib import Path
 
 import pytest
@@ -100,3 +101,41 @@ def test_the_emulator_attaches_speaks_and_leaves_nothing_running(tmp_path):
     finally:
         handle.close()
     assert process is not None and process.popen.poll() is not None
+
+
+class NotReady(Exception):
+    """Raised by a run that is not ready to step, to see what a board kind had started before it asked."""
+
+
+@pytest.mark.parametrize("spec", ["px4", "sitl_port"])
+def test_a_lockstep_px4_is_started_or_listened_for_only_once_the_bench_can_send_its_first_step(
+        spec, fake_px4_build, tmp_path):
+    """PX4 SITL counts from its connection to the first HIL_SENSOR (after 1 s it logs an error, and three flights on
+    two cores made it wait that long): the kinds it connects to ask the run's `ready_to_step` before they start PX4
+    (its log is written from its start) or listen on the simulator port a PX4 started by hand connects to."""
+    port = free_tcp_port()
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    name, started = {"px4": (f"px4:{fake_px4_build}", (run_dir / "px4.log").exists),
+                     "sitl_port": (f"port:tcpin:127.0.0.1:{port}", lambda: listening(port))}[spec]
+    asked: list[bool] = []
+
+    def ready_to_step() -> None:
+        asked.append(started())
+        raise NotReady
+
+    with pytest.raises(NotReady):
+        board_target(name).attach(load_scenario(ROOT / "scenarios" / "hover.yaml"), run_dir,
+                                  LinkSettings(ready_to_step=ready_to_step))
+    assert asked == [False] and not started()
+
+
+def free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def listening(port: int) -> bool:
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0

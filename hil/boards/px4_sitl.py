@@ -62,6 +62,7 @@ class Px4SitlTarget:
         return SITL_POLICY
 
     def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
+        settings.ready_to_step()  # PX4 waits for the first HIL_SENSOR from its connection on, 1 s before an error
         claim, listener = claim_instance(_reserve_simulator_port)
         n = claim.number
         try:

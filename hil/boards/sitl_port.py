@@ -35,6 +35,7 @@ class SitlPortTarget:
         return SITL_PORT_POLICY
 
     def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
+        settings.ready_to_step()  # a PX4 SITL may connect at once, and waits 1 s for its first HIL_SENSOR
         session = BoardSession(open_link(self.port, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
                                reversible_motors=settings.reversible_motors,
                                motor_count=settings.motor_count)

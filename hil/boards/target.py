@@ -3,6 +3,7 @@ kind's own module asks which kind it is."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal, Protocol
@@ -39,6 +40,9 @@ class LinkSettings:
     reversible_motors: bool = False  # the plant's rotors take -1..1 (the paper's ideal actuators)
     speed_factor: float = 1.0  # a lockstep run paced at this many times the wall clock (PX4_SIM_SPEED_FACTOR)
     rotors: RotorGeometry | None = None  # the plant's rotors, PX4's motor order (None: the board's airframe's)
+    # returns once the bench can send its first step: a board that times its wait for the first sensor frame from the
+    # moment it connects (PX4 SITL: an error after 1 s) is started only then
+    ready_to_step: Callable[[], None] = lambda: None
 
     @property
     def motor_count(self) -> int:

@@ -8,8 +8,6 @@ streams), then the frames.
 
 from __future__ import annotations
 
-import threading
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -115,29 +113,6 @@ def warm_up() -> None:
         encode(step.frames, 0, 1, 1, *fields)
     STEP.freeze()
     hil_frames.FRAMES.freeze()
-
-
-def warm_up_beside() -> Callable[[], None]:
-    """`warm_up` on a thread of its own, started now, beside whatever the caller does meanwhile (attaching a
-    board: a process start-up's worth of waiting); returns the function that waits for it, raising what it
-    raised."""
-    failure: list[BaseException] = []
-
-    def warm() -> None:
-        try:
-            warm_up()
-        except BaseException as exc:  # raised where the flight waits for it
-            failure.append(exc)
-
-    thread = threading.Thread(target=warm, name="compiled-step-warm-up", daemon=True)
-    thread.start()
-
-    def join() -> None:
-        thread.join()
-        if failure:
-            raise failure[0]
-
-    return join
 
 
 if __name__ == "__main__":  # `make fmu`: compiled into the cache at set-up, so that no run pays for it
