@@ -208,7 +208,7 @@ def _prepare_to_step() -> None:
     """What the first step needs and no board should wait for once it has connected: the compiled step loaded
     (~0.2-0.4 s) and the start-up's garbage collected (a full collection, ~80 ms; the flight's frozen heap then
     collects only the young generations). Measured with PX4 SITL: it waited 240-320 ms for its first sensor frame
-    after connecting, and over its 1 s with three flights on two cores; now ~10 ms."""
+    after connecting, and over its 1 s with three flights on two cores; now 3-4 ms."""
     warm_up()
     gc.collect()
 
