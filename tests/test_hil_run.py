@@ -37,7 +37,14 @@ def read_mcap(path: Path) -> list[tuple[str, int, bytes]]:
         return [(ch.topic, msg.log_time, msg.data) for _, ch, msg in make_reader(f).iter_messages()]
 
 
-@pytest.mark.parametrize("scenario", SHIPPED, ids=lambda p: p.stem)
+# link_faults flies paced on the wall clock and is judged on its attitude: alone its three runs here gave the same
+# 0.69° (bound 3°); beside another test's flight it read 4.04° once (no late step) and 7.47° beside two. It runs
+# alone with the `wallclock` tests.
+WALL_CLOCK_JUDGED = {"link_faults"}
+
+
+@pytest.mark.parametrize("scenario", [pytest.param(s, marks=pytest.mark.wallclock) if s.stem in WALL_CLOCK_JUDGED
+                                      else s for s in SHIPPED], ids=lambda p: p.stem)
 def test_shipped_scenario_flies_on_the_emulator_with_its_expectations_met(scenario, shipped_flight):
     result, run_dir = shipped_flight(scenario)
     assert result.returncode == 0, result.stdout + result.stderr
