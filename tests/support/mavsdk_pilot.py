@@ -86,6 +86,7 @@ class MavsdkTester:
         self.drone = new_system()
         self.vehicle_us = 0  # ATTITUDE_QUATERNION's timestamp: the vehicle's clock
         self.latest: dict[str, Any] = {}
+        self.heard_s: dict[str, float] = {}  # when each stream last gave a value (host monotonic), for diagnosis
         self._tasks: list[asyncio.Task[None]] = []
 
     # --- connection and the vehicle's clock ----------------------------------------------
@@ -107,6 +108,7 @@ class MavsdkTester:
     async def _follow(self, name: str, stream: Any) -> None:
         async for value in stream:
             self.latest[name] = value
+            self.heard_s[name] = time.monotonic()
             if name == "attitude":
                 self.vehicle_us = max(self.vehicle_us, value.timestamp_us)
 
@@ -176,8 +178,16 @@ class MavsdkTester:
             reached = await self.poll(lambda t=target: self._distance_to(t) < OFFBOARD_ACCEPTANCE_M, timeout_s)
             self.findings.offboard_errors_m.append(self._distance_to(target))
             self.findings.check(reached, f"offboard setpoint {target[:3]} not within {OFFBOARD_ACCEPTANCE_M} m in "
-                                         f"{timeout_s:g} s (at {self._distance_to(target):.2f} m)")
+                                         f"{timeout_s:g} s (at {self._distance_to(target):.2f} m; {self._state()})")
         await self.drone.offboard.stop()
+
+    def _state(self) -> str:
+        """The flight mode and how long ago (host time) each stream the criteria read last gave a value: a failed
+        criterion then says whether PX4 did something else or the client stopped hearing it."""
+        now = time.monotonic()
+        ages = ", ".join(f"{name} {now - self.heard_s[name]:.1f} s ago" for name in ("attitude", "ned", "mode")
+                         if name in self.heard_s)
+        return f"mode {self.latest.get('mode')}; heard {ages}"
 
     def _distance_to(self, target: tuple[float, ...]) -> float:
         ned = self.latest.get("ned")

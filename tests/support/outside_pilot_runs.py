@@ -142,8 +142,15 @@ def square_mission_with_a_second_station(station: SecondGroundStation):
     return flight
 
 
+def px4_said(run_dir: Path) -> str:
+    """PX4's warnings and errors of the run (its console, kept in the run directory when the bench started PX4)."""
+    log = run_dir / "px4.log"
+    lines = log.read_text(errors="replace").splitlines() if log.exists() else []
+    return "\n".join(line for line in lines if line.startswith(("WARN", "ERROR")))
+
+
 def assert_the_square_flight(findings: Findings, station: SecondGroundStation, out: str, run_dir: Path) -> None:
-    assert findings.failures == [], findings
+    assert findings.failures == [], f"{findings}\n{out}\nPX4:\n{px4_said(run_dir)}"
     assert findings.mission_finished and findings.disarmed and findings.max_cross_track_m < 5.0
     assert station.results["heartbeats"] and station.results["MIS_TAKEOFF_ALT"] is not None
     downloaded = station.results["mission"]
