@@ -1,6 +1,6 @@
 """Someone else flies PX4 while the bench is only the world (`pilot: external`): PX4's own MAVSDK test cases
 (tests/support/mavsdk_pilot.py: their steps, criteria and timeouts) on PX4 SITL, where the bench leaves PX4's API
-port (14540+N) to MAVSDK and its GCS port (14550) to a ground station, and on PX4's HITL path, where the bench's
+port (14540+N) to MAVSDK and its GCS instance (18570+N) to a ground station, and on PX4's HITL path, where the bench's
 relay serves both. The bench judges the same flight on the truth (`expect:`), and its verdicts must agree with the
 script's. One flight per case and board kind, several criteria each.
 
@@ -75,7 +75,10 @@ def test_mavsdk_flies_a_square_mission_with_rtl_while_a_second_station_is_served
     findings = Findings()
     try:
         instance = px4_instance(runs)
-        station = SecondGroundStation("udpin:0.0.0.0:14550", instance + 1)  # PX4's GCS instance sends to 14550
+        # PX4's GCS instance (px4-rc.mavlink: UDP 18570+N) talks to the first station that writes to it. Listening on
+        # 14550, where it sends before that, the station also heard every other run's relay (an emulator flight
+        # sends there by default, as system 1 too) and answered the last sender heard
+        station = SecondGroundStation(f"udpout:127.0.0.1:{18570 + instance}", instance + 1)
         station.start()
         findings = fly_blocking(f"udpin://0.0.0.0:{14540 + instance}", square_mission_with_a_second_station(station),
                                 900)
