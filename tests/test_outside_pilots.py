@@ -1,8 +1,11 @@
 """Someone else flies PX4 while the bench is only the world (`pilot: external`): PX4's own MAVSDK test cases
 (tests/support/mavsdk_pilot.py: their steps, criteria and timeouts) on PX4 SITL, where the bench leaves PX4's API
-port (14540+N) to MAVSDK and its GCS instance (18570+N) to a ground station, and on PX4's HITL path, where the bench's
-relay serves both. The bench judges the same flight on the truth (`expect:`), and its verdicts must agree with the
-script's. One flight per case and board kind, several criteria each.
+instance to MAVSDK and its GCS instance to a ground station, and on PX4's HITL path, where the bench's relay serves
+both. On SITL each client writes to its instance's own port (px4-rc.mavlink: 14580+N, 18570+N), which takes the
+first client that writes as its partner, rather than listening where PX4 sends before that (14540+N, 14550): every
+other run's relay sends there too by default, as system 1, and a client listening there answered the last sender.
+The bench judges the same flight on the truth (`expect:`), and its verdicts must agree with the script's. One
+flight per case and board kind, several criteria each.
 
 Needs HIL_PX4_DIR (tests/support/px4_builds.py).
 """
@@ -52,7 +55,7 @@ def test_mavsdk_takes_off_flies_offboard_setpoints_and_lands_px4_sitl(sitl, tmp_
                         "--speed-factor", str(SPEED_FACTOR))
     findings = Findings()
     try:
-        url = f"udpin://0.0.0.0:{14540 + px4_instance(tmp_path / 'runs')}"
+        url = f"udpout://127.0.0.1:{14580 + px4_instance(tmp_path / 'runs')}"
         findings = fly_blocking(url, takeoff_offboard_and_land, 600)
     finally:
         out, run_dir = finish(bench, findings)
@@ -75,12 +78,9 @@ def test_mavsdk_flies_a_square_mission_with_rtl_while_a_second_station_is_served
     findings = Findings()
     try:
         instance = px4_instance(runs)
-        # PX4's GCS instance (px4-rc.mavlink: UDP 18570+N) talks to the first station that writes to it. Listening on
-        # 14550, where it sends before that, the station also heard every other run's relay (an emulator flight
-        # sends there by default, as system 1 too) and answered the last sender heard
         station = SecondGroundStation(f"udpout:127.0.0.1:{18570 + instance}", instance + 1)
         station.start()
-        findings = fly_blocking(f"udpin://0.0.0.0:{14540 + instance}", square_mission_with_a_second_station(station),
+        findings = fly_blocking(f"udpout://127.0.0.1:{14580 + instance}", square_mission_with_a_second_station(station),
                                 900)
     finally:
         out, run_dir = finish(bench, findings)
