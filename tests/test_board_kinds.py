@@ -5,11 +5,15 @@ from __future__ import annotations
 
 import os
 import socket
+import subprocess
 from pathlib import Path
 
 import pytest
 
-from firmware_interface.link import parse_connection
+from firmware_interface.board import SIMULATED, BoardSession
+from firmware_interface.link import Link, open_pty_pair, parse_connection
+from hil.boards.emulator import EmulatorProcess
+from hil.boards.handle import BoardHandle
 from hil.boards.registry import KINDS, BoardOptions, BoardSpecError, board_target
 from hil.boards.target import LinkSettings
 from hil.scenario.loader import load_scenario
@@ -139,3 +143,19 @@ def free_tcp_port() -> int:
 def listening(port: int) -> bool:
     with socket.socket() as s:
         return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+def test_a_board_failure_waits_for_the_dying_process_to_give_its_exit_as_the_cause(tmp_path):
+    """A killed board resets its links before its exit is posted: the note waits for the exit, within `wait_s`."""
+    pair = open_pty_pair()
+    session = BoardSession(Link(pair.master), SIMULATED)
+    popen = subprocess.Popen(["sh", "-c", "sleep 0.3; exit 3"])
+    handle = BoardHandle(session, session, "a board process", EmulatorProcess(popen, tmp_path / "emulator.log"))
+    try:
+        assert handle.exit_note() is None  # still running: the check does not wait by default
+        assert handle.exit_note(wait_s=5.0) == f"the emulator exited with code 3 (see {tmp_path / 'emulator.log'})"
+    finally:
+        popen.kill()
+        popen.wait()
+        handle.close()  # the process is gone: closes the link
+        pair.release_slave()

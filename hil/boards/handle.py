@@ -4,6 +4,7 @@ the ground-station relay."""
 from __future__ import annotations
 
 import subprocess
+from contextlib import suppress
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -55,9 +56,15 @@ class BoardHandle:
         """CPU seconds the board's process has used, when the bench started it (None for a board attached)."""
         return cpu_seconds(self.process.popen.pid) if self.process is not None else None
 
-    def exit_note(self) -> str | None:
-        """Why the board's process ended, when the bench started it and it is gone (a board failure's cause)."""
-        return self.process.exit_note() if self.process is not None else None
+    def exit_note(self, wait_s: float = 0.0) -> str | None:
+        """Why the board's process ended, when the bench started it and it is gone (a board failure's cause). A
+        process that is being killed closes its links before its exit is posted: a bench that read the reset at
+        once found it still running (CI, once, for a SIGKILLed PX4); `wait_s` gives it that long to be gone."""
+        if self.process is None:
+            return None
+        with suppress(subprocess.TimeoutExpired):
+            self.process.popen.wait(wait_s)
+        return self.process.exit_note()
 
     def close(self) -> None:
         """Stop what the bench started (PX4 included: nothing is left running), then close the links."""

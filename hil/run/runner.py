@@ -52,6 +52,10 @@ from hil.scenario.mission import MissionPlan
 from hil.scenario.schema import Scenario
 from plant_fmu import Plant
 
+# how long a board failure waits for the board's process to be gone, to give its exit as the cause (a killed PX4's
+# exit is posted a moment after its sockets reset); a board alive after it costs the failed run this much
+DYING_BOARD_S = 1.0
+
 
 @dataclass
 class RunOptions:
@@ -191,7 +195,7 @@ class _Run:
         report.metrics = {**metrics.compute(), "timing": stepper.timing.figures(self.paced),
                           "link": handle.hil_session.link.counters, **pilot.summary(),
                           "behaviour": behaviour.figures(), **_link_figures(stepper, handle)}
-        if report.code == EXIT_BOARD and (note := handle.exit_note()):
+        if report.code == EXIT_BOARD and (note := handle.exit_note(DYING_BOARD_S)):
             report.reason = f"{report.reason}; {note}"
         if report.code == EXIT_OK:
             verdicts = behaviour.verdicts(expect)
