@@ -2,7 +2,9 @@
 driven by a minimal simulator (the cost of PX4 alone, benchmarks/px4_sitl_speed.py).
 
 Rows: the reference; `hil run scenarios/hover.yaml --px4 DIR`; hover and gust on the emulator (full chain:
-sensors, estimator, SMARC, MCAP at full rate, Zenoh on); the paper's 1 kHz helix per controller; and the
+sensors, estimator, SMARC, MCAP at full rate, Zenoh on), gust again with `--spin-wait` (the bench and the emulator
+poll for each other's frames: what a machine with a core free for each gains); the paper's 1 kHz helix per
+controller; and the
 wall-clock pacing a Pixhawk gets (`--px4-hitl`, PX4's HITL code path on a pty). A round runs them back to
 back; medians of the rounds are printed, with the load average, then where a bench step's time goes.
 Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--quick]
@@ -51,7 +53,7 @@ def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path,
     board_cpu: dict[str, float] = {"reference": reference_cpu_us}
     breakdown: dict[str, dict[str, float]] = {}
     runs = {"px4 hover": (files["hover"], ["--px4", str(sitl.root)]), "hover": (files["hover"], []),
-            "gust": (files["gust"], [])}
+            "gust": (files["gust"], []), "gust spin-wait": (files["gust"], ["--spin-wait"])}
     runs |= {f"helix {c}": (files["helix"], ["--controller", c]) for c in CONTROLLERS}
     for name, (scenario, extra) in runs.items():
         # exit 1 (the scenario's bounds, SMARC's) is expected of the other controllers on the helix
@@ -139,7 +141,8 @@ def print_table(rounds: list[dict[str, Any]], first_gust: tuple[float, float]) -
     ref = med["reference"]
     labels = {"reference": "PX4 v1.15.4 SITL + minimal simulator (reference)",
               "px4 hover": "hil run scenarios/hover.yaml --px4 DIR", "hover": "hil run scenarios/hover.yaml (emulator)",
-              "gust": "hil run scenarios/gust.yaml (emulator)"}
+              "gust": "hil run scenarios/gust.yaml (emulator)",
+              "gust spin-wait": "  the same with --spin-wait (both ends poll)"}
     labels |= {f"helix {c}": f"scenarios/paper_helix.yaml 1 kHz, {c}" for c in CONTROLLERS}
     print(f"\nload average {os.getloadavg()[0]:.2f}; medians of {len(rounds)} round(s)")
     print(f"{'run':<52} {'real-time factor':>16} {'ratio':>7}  target")

@@ -119,6 +119,20 @@ def test_a_board_that_stops_answering_mid_mission_ends_the_run_with_the_frames_s
     assert np.all(np.diff([f.t_us for f in frames]) == 4000)
 
 
+def test_a_board_gone_before_the_first_step_is_a_board_failure_not_a_bench_bug(tmp_path, board_for):
+    """The loop reads what the board said before its first step; a board that died between its heartbeat and that
+    read (here: its flight code stopped and its end of the pty closed) ends the run as any later loss does."""
+    scenario = hover(tmp_path, 1.0)
+    board_for.append(board := ThreadBoard(scenario))
+    board.stop.set()
+    board.thread.join(5.0)
+    board.firmware.link.close()
+    frames: list[StepFrame] = []
+    result, _ = fly(scenario, board, frames.append)
+    assert result.exit_code == EXIT_BOARD and result.reason.startswith("board/link failure"), result
+    assert result.internal_error is None and frames == []
+
+
 def test_a_stop_signal_whose_interrupt_is_swallowed_where_it_lands_still_ends_the_run(tmp_path, board_for):
     """Python drops an exception raised where it cannot propagate (a ctypes callback such as the FMU's logger,
     a `__del__`); a SIGTERM that lands there must still stop the run, at the next step."""

@@ -30,6 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="before the first HIL_SENSOR send one HEARTBEAT, not one each wall-clock second: for a "
                              "peer that holds the port before the emulator starts and waits for it (the bench's pty), "
                              "so that nothing the emulator sends depends on the wall clock")
+    parser.add_argument("--spin-wait", action="store_true",
+                        help="wait for the next frame by polling a while before sleeping, as `hil run --spin-wait` "
+                             "does for the replies: faster in lockstep with a core to spare for each side")
     return parser
 
 
@@ -52,6 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)
     compile_flight_code(config)  # before the first heartbeat, so the bench's start-up wait covers it
+    if args.spin_wait:
+        link.spin_wait()
     board = EmulatedBoard(link, config, repeat_boot_heartbeat=not args.one_boot_heartbeat)
     gc.freeze()  # start-up objects live to the end: a full collection over them stalls the loop ~10s of ms
     reason = board.run(lambda: stopping)

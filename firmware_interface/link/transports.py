@@ -86,12 +86,17 @@ class FdTransport:
 
     def read(self, timeout_s: float) -> bytes:
         if self.spin is not None:
-            return _spun(self.spin, self._read_now, self._read_waiting, timeout_s)
+            return _spun(self.spin, self._read_ready, self._read_waiting, timeout_s)
         return self._read_waiting(timeout_s)
 
     def _read_waiting(self, timeout_s: float) -> bytes:
         ready, _, _ = select.select([self.fd], [], [], max(timeout_s, 0.0))
         return self._read_now() if ready else b""
+
+    def _read_ready(self) -> bytes:
+        """What is there now, asked through `select`: a tty set up as pyserial does (VMIN 0) reads 0 bytes both
+        when it has nothing and at its end, and only a descriptor `select` calls ready tells the two apart."""
+        return self._read_waiting(0.0)
 
     def _read_now(self) -> bytes:
         try:

@@ -193,8 +193,9 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
                           "it). An outside pilot's run is paced at 1 by default; a faster one lets a script fly N "
                           "times faster than it would take a person")
     run.add_argument("--spin-wait", action="store_true",
-                     help="wait for the board's lockstep replies by polling a while before sleeping: faster on a "
-                          "machine with a core to spare, slower for the rest of a busy one (docs/performance.md)")
+                     help="wait for the board's lockstep replies by polling a while before sleeping, and the "
+                          "emulator the bench starts for its frames: faster with a core free for each, slower on a "
+                          "busy machine (docs/performance.md)")
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")

@@ -83,9 +83,11 @@ class EmulatorTarget:
         log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
         # one boot heartbeat: the bench holds the pty from before the emulator starts and waits for it; more, on the
         # wall clock, could land after the pre-step drain in a recorded step
+        spin = ["--spin-wait"] if settings.spin_wait else []
+        # in a session of its own: a terminal Ctrl-C stops the bench, which stops it
         popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
-                                  "--config", str(config_path), "--one-boot-heartbeat"], stdout=log, stderr=log,
-                                 start_new_session=True)  # a terminal Ctrl-C stops the bench, which stops it
+                                  "--config", str(config_path), "--one-boot-heartbeat", *spin], stdout=log,
+                                 stderr=log, start_new_session=True)
         session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
                                reversible_motors=settings.reversible_motors,
                                motor_count=settings.motor_count)

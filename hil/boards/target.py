@@ -43,6 +43,7 @@ class LinkSettings:
     # returns once the bench can send its first step: a board that times its wait for the first sensor frame from the
     # moment it connects (PX4 SITL: an error after 1 s) is started only then
     ready_to_step: Callable[[], None] = lambda: None
+    spin_wait: bool = False  # a board the bench starts polls for the bench's frames as the bench does for its replies
 
     @property
     def motor_count(self) -> int:

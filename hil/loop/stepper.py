@@ -90,13 +90,14 @@ class Stepper:
     def run(self) -> LoopResult:
         started = time.perf_counter()
         board_cpu_s = self.board.cpu_s()
-        self.io.drain()  # what the board said before the first step (PX4's requests as it connects, the wall-clock
-        # heartbeats of a board started elsewhere, as many as the start-up took seconds) belongs to no step:
-        # recorded, it would make a recording depend on how fast the machine got here. A board that speaks on the
-        # wall clock could still land after it; the emulator the bench starts sends one heartbeat before the first
-        # HIL_SENSOR (--one-boot-heartbeat) for that reason
         reason, code, internal = "completed", int(EXIT_OK), None
         try:
+            self.io.drain()  # what the board said before the first step (PX4's requests as it connects, the
+            # wall-clock heartbeats of a board started elsewhere, as many as the start-up took seconds) belongs to
+            # no step: recorded, it would make a recording depend on how fast the machine got here. A board that
+            # speaks on the wall clock could still land after it; the emulator the bench starts sends one heartbeat
+            # before the first HIL_SENSOR (--one-boot-heartbeat) for that reason. A board gone by now is a board
+            # failure like any later one
             paced = realtime_priority(self.board.realtime_pids()) if self.paced else nullcontext("")
             with frozen_heap(), paced as note:
                 if note:

@@ -171,7 +171,7 @@ class _Run:
         ready_to_step = beside(_prepare_to_step, "prepare-to-step")  # while the board starts
         settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(flight.parameters),
                                 self.options.speed_factor, flight.plant.rotor_geometry(flight.parameters),
-                                ready_to_step)
+                                ready_to_step, self.options.spin_wait)
         try:
             report.handle = handle = self.options.board.attach(scenario, self.run_dir, settings)
         except (BoardError, LinkError) as exc:
