@@ -4,9 +4,8 @@ driven by a minimal simulator (the cost of PX4 alone, benchmarks/px4_sitl_speed.
 Rows: the reference; `hil run scenarios/hover.yaml --px4 DIR`; hover and gust on the emulator (full chain:
 sensors, estimator, SMARC, MCAP at full rate, Zenoh on), gust again with `--spin-wait` (the bench and the emulator
 poll for each other's frames: what a machine with a core free for each gains); the paper's 1 kHz helix per
-controller; and the
-wall-clock pacing a Pixhawk gets (`--px4-hitl`, PX4's HITL code path on a pty). A round runs them back to
-back; medians of the rounds are printed, with the load average, then where a bench step's time goes.
+controller; and the wall-clock pacing a Pixhawk gets (`--px4-hitl`, PX4's HITL code path on a pty). A round runs
+them back to back; medians of the rounds are printed, with the load average, then where a bench step's time goes.
 Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--quick]
 """
 
