@@ -1,5 +1,6 @@
-"""The emulator's compiled flight code (firmware_interface/emulator/compiled.py): compiled once, loaded after,
-and compiled afresh when any of its sources changes."""
+"""The emulator's compiled flight code (firmware_interface/emulator/compiled.py, a group of
+firmware_interface/compiled_code.py): compiled once, loaded after, and compiled afresh when any of its sources
+changes."""
 
 from __future__ import annotations
 
@@ -12,7 +13,9 @@ from pathlib import Path
 
 import pytest
 
+from firmware_interface.compiled_code import CompiledCode
 from firmware_interface.emulator import compiled
+from firmware_interface.link import frame_packing
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -32,8 +35,8 @@ for name in CONTROLLERS:
     fly(build_config({"controller": name, "airframe": "paper_airframe"}), PAPER_PLANT, hover((0.0, 0.0, -5.0)),
         2.0, start=(0.0, 0.0, -5.0), sensors=SensorsConfig())
 quintic_sample(np.zeros((3, 6)), 0.5)
-laws = {f"{c.py_func.__module__}.{c.py_func.__qualname__}": c.dispatcher.stats for c in compiled.COMPILED}
-print(json.dumps({"cache_dir": str(compiled.cache_dir()),
+laws = {f"{c.py_func.__module__}.{c.py_func.__qualname__}": c.dispatcher.stats for c in compiled.FLIGHT_CODE.entries}
+print(json.dumps({"cache_dir": str(compiled.FLIGHT_CODE.cache_dir),
                   "hits": {name: sum(stats.cache_hits.values()) for name, stats in laws.items()},
                   "misses": {name: sum(stats.cache_misses.values()) for name, stats in laws.items()}}))
 """
@@ -66,14 +69,30 @@ def test_the_bench_and_its_commands_start_without_loading_the_compiler():
 
 def test_the_cache_is_named_after_every_flight_code_source(tmp_path, monkeypatch):
     """numba would only notice a change in the calling function's own file; a change of a helper anywhere in
-    the emulator's sources must give compiled code of its own."""
+    the emulator's sources (or in a module of another package the group names) must give compiled code of its
+    own."""
     package = tmp_path / "emulator"
-    shutil.copytree(compiled.FLIGHT_CODE, package, ignore=shutil.ignore_patterns("__pycache__"))
-    monkeypatch.setattr(compiled, "FLIGHT_CODE", package)
+    emulator_sources = compiled.FLIGHT_CODE.sources[0]
+    shutil.copytree(emulator_sources, package, ignore=shutil.ignore_patterns("__pycache__"))
+    packing = tmp_path / "frame_packing.py"
+    packing.write_text(Path(frame_packing.__file__).read_text())
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    before = compiled.cache_dir()
+
+    def cache_dir():  # the directory a process starting now would use
+        return CompiledCode("flight-code", (package, packing)).cache_dir
+
+    before = cache_dir()
     assert before.parent == tmp_path / "cache" / "hil-bench"
-    assert compiled.cache_dir() == before  # the same sources, the same compiled code
+    assert cache_dir() == before  # the same sources, the same compiled code
     helper = package / "geometry.py"
     helper.write_text(helper.read_text().replace("return (angle + math.pi)", "return (angle + 1.0 * math.pi)"))
-    assert compiled.cache_dir() != before
+    after_helper = cache_dir()
+    assert after_helper != before
+    packing.write_text(packing.read_text().replace("crc = 0xFFFF", "crc = 0xFFFF  # seed"))
+    assert cache_dir() != after_helper
+
+
+def test_the_flight_code_group_names_the_emulator_and_every_module_it_compiles_in():
+    sources = {path.name for path in compiled.FLIGHT_CODE.sources}
+    assert Path(compiled.FLIGHT_CODE.sources[0]) == Path(compiled.__file__).parent
+    assert {"frame_packing.py", "compiled_code.py"} <= sources

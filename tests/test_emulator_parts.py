@@ -1,4 +1,4 @@
-"""Emulator parts against hand-worked facts: mixer allocation, differentiator, estimator alignment."""
+"""Emulator parts against hand-worked facts: mixer allocation, differentiator, estimator alignment and history."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 from firmware_interface.emulator.config import EstimatorSettings, NominalVehicle, Rotor
 from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
-from firmware_interface.emulator.estimator import Estimator
+from firmware_interface.emulator.estimator import HISTORY_START, Estimator
 from firmware_interface.emulator.mixer import Mixer
 from firmware_interface.emulator.telemetry import collective_fraction, vehicle_type
 from firmware_interface.hil_codec import GpsFix, SensorReadings
@@ -125,3 +125,32 @@ def test_estimator_aligns_attitude_and_heading_from_accel_and_mag_at_rest():
     for k in range(10):
         est.on_sensors(SensorReadings(k * 4000, f, (0.0, 0.0, 0.0), m))
     assert est.estimate().eta == pytest.approx((roll, pitch, yaw), abs=1e-3)
+
+
+def test_the_estimators_history_answers_for_the_sample_nearest_a_time_within_its_last_second():
+    """The state a GPS fix is compared with: the sample nearest its measurement time (the older of two equally
+    near), from the last HISTORY_S = 1 s only, however many samples that is (here 1 kHz: the history grows past
+    its first size while it runs), plus the corrections applied since."""
+    field_ned = np.array((21.5e-6, 1.3e-6, 43.3e-6))
+    est = Estimator(EstimatorSettings())
+    est.on_gps(GpsFix(0, 47.397742, 8.545594, 488.0, (0, 0, 0), 0.5, 0.5), 0)
+    est.field_ned = field_ned
+    rng = np.random.default_rng(3)
+    seen: list[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+    t_us = 0
+    for k in range(2500):  # 2.5 s, with a 2 ms gap every 100 samples: some times are equally near two samples
+        t_us += 2000 if k % 100 == 99 else 1000
+        accel = (rng.normal(0, 0.3), rng.normal(0, 0.3), -9.80665 + rng.normal(0, 0.3))
+        est.on_sensors(SensorReadings(t_us, accel, tuple(rng.normal(0, 0.01, 3)), tuple(field_ned)))
+        est._pending_pos += rng.normal(0, 0.01, 3)  # corrections to apply, as fixes leave them
+        seen.append((t_us, est.pos.copy(), est.vel.copy(), est._applied_pos.copy(), est._applied_vel.copy()))
+    kept = [s for s in seen if s[0] >= t_us - 1_000_000]
+    assert len(kept) > HISTORY_START  # more than the history's first size: it grew
+    for target in (t_us - 5_000_000, t_us - 999_500, t_us - 500_000, seen[-102][0] + 1000, t_us, t_us + 10_000):
+        _, pos, vel, applied_pos, applied_vel = min(kept, key=lambda s: abs(s[0] - target))  # first of equals
+        state = est._state_at(target)
+        assert state is not None
+        assert np.array_equal(state[0], pos + (est._applied_pos - applied_pos))
+        assert np.array_equal(state[1], vel + (est._applied_vel - applied_vel))
+    tie = seen[-102][0] + 1000  # halfway between the two samples around a 2 ms gap
+    assert abs(seen[-102][0] - tie) == abs(seen[-101][0] - tie)

@@ -14,13 +14,12 @@ delay, as EKF2_GPS_DELAY), the correction then applied to the present state.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 from pygeomag import GeoMag
 
-from firmware_interface.emulator.compiled import flight_code
+from firmware_interface.emulator.compiled import flight_code, shared_maths
 from firmware_interface.emulator.config import EstimatorSettings
 from firmware_interface.emulator.geometry import (
     dot,
@@ -40,7 +39,7 @@ HISTORY_S = 1.0
 GPS_ACCEL_FILTER_S = 1.0
 
 
-@flight_code
+@shared_maths
 def mahony_step(q: np.ndarray, f: np.ndarray, w: np.ndarray, m: np.ndarray, field_ned: np.ndarray, use_mag: bool,
                 acc_ned: np.ndarray, g: float, attitude_gain: float, heading_gain: float, dt: float) -> np.ndarray:
     """The attitude quaternion after `dt`: gyro rates plus the accelerometer's and magnetometer's corrections."""
@@ -67,7 +66,7 @@ def mahony_step(q: np.ndarray, f: np.ndarray, w: np.ndarray, m: np.ndarray, fiel
     return q_next / math.sqrt(q_next[0] ** 2 + q_next[1] ** 2 + q_next[2] ** 2 + q_next[3] ** 2)
 
 
-@flight_code
+@shared_maths
 def propagate(pos: np.ndarray, vel: np.ndarray, pending_pos: np.ndarray, pending_vel: np.ndarray,
               applied_pos: np.ndarray, applied_vel: np.ndarray, q: np.ndarray, f: np.ndarray, g: float, share: float,
               dt: float) -> None:
@@ -85,6 +84,60 @@ def propagate(pos: np.ndarray, vel: np.ndarray, pending_pos: np.ndarray, pending
     vel += acc * dt
 
 
+# The filter's state in one array, each part a view of it (`Estimator.__init__`): the compiled step updates it in
+# place, and its parts keep their names in Python.
+Q, RATES, POS, VEL, ACC, PENDING_POS, PENDING_VEL, APPLIED_POS, APPLIED_VEL, BARO_OFFSET = (
+    0, 4, 7, 10, 13, 16, 19, 22, 25, 28)
+STATE_SIZE = 29
+HISTORY_START = 512  # samples the history ring holds at first (2 s at 250 Hz); it doubles when full
+HISTORY_ROW = 12  # pos, vel, applied_pos, applied_vel at one sample
+
+
+@flight_code
+def sensor_step(x: np.ndarray, f: np.ndarray, w: np.ndarray, m: np.ndarray, field_ned: np.ndarray, use_mag: bool,
+                g: float, attitude_gain: float, heading_gain: float, share: float, baro_gain: float, baro_alt_m: float,
+                history_t_us: np.ndarray, history: np.ndarray, ring: np.ndarray, t_us: int, dt: float) -> None:
+    """One aligned sample in place: attitude (`mahony_step`), rates, position and velocity (`propagate`), the baro
+    correction (`baro_alt_m` NaN: none this sample; the first sets the offset), then the sample into the history
+    ring (`ring` = first, count) and the samples older than HISTORY_S out of it."""
+    q, acc = x[Q:Q + 4], x[ACC:ACC + 3]
+    q[:] = mahony_step(q, f, w, m, field_ned, use_mag, acc, g, attitude_gain, heading_gain, dt)
+    x[RATES:RATES + 3] = w
+    pos, vel = x[POS:POS + 3], x[VEL:VEL + 3]
+    applied_pos, applied_vel = x[APPLIED_POS:APPLIED_POS + 3], x[APPLIED_VEL:APPLIED_VEL + 3]
+    propagate(pos, vel, x[PENDING_POS:PENDING_POS + 3], x[PENDING_VEL:PENDING_VEL + 3], applied_pos, applied_vel,
+                 q, f, g, share, dt)
+    if not math.isnan(baro_alt_m):
+        if math.isnan(x[BARO_OFFSET]):
+            x[BARO_OFFSET] = baro_alt_m + pos[2]
+        else:
+            dz = (x[BARO_OFFSET] - baro_alt_m) - pos[2]
+            pos[2] += baro_gain * dz
+            vel[2] += baro_gain / 2 * dz
+    capacity = history_t_us.size
+    at = (ring[0] + ring[1]) % capacity
+    history_t_us[at] = t_us
+    history[at, 0:3] = pos
+    history[at, 3:6] = vel
+    history[at, 6:9] = applied_pos
+    history[at, 9:12] = applied_vel
+    ring[1] += 1
+    while ring[1] > 0 and history_t_us[ring[0]] < t_us - HISTORY_S * 1e6:
+        ring[0], ring[1] = (ring[0] + 1) % capacity, ring[1] - 1
+
+
+@flight_code
+def estimate_of(x: np.ndarray) -> np.ndarray:
+    """pos, vel, q, η, rates in a new array (what `Estimate` views)."""
+    out = np.empty(16)
+    out[0:3] = x[POS:POS + 3]
+    out[3:6] = x[VEL:VEL + 3]
+    out[6:10] = x[Q:Q + 4]
+    out[10:13] = quat_to_euler(x[Q:Q + 4])
+    out[13:16] = x[RATES:RATES + 3]
+    return out
+
+
 @dataclass(frozen=True)
 class Estimate:
     pos_ned: np.ndarray
@@ -98,26 +151,28 @@ class Estimator:
     def __init__(self, settings: EstimatorSettings, g: float = STANDARD_GRAVITY_M_S2) -> None:
         self.settings = settings
         self.g = g
-        self.q = np.array((1.0, 0.0, 0.0, 0.0))
-        self.pos = np.zeros(3)
-        self.vel = np.zeros(3)
-        self.acc = np.zeros(3)  # NED, from GPS velocity, low-passed: the attitude reference
+        self.x = np.zeros(STATE_SIZE)  # the filter's state; the names below are views of it
+        self.x[Q] = 1.0
+        self.x[BARO_OFFSET] = math.nan  # set by the first baro sample
+        self.q, self.rates = self.x[Q:Q + 4], self.x[RATES:RATES + 3]
+        self.pos, self.vel = self.x[POS:POS + 3], self.x[VEL:VEL + 3]
+        self.acc = self.x[ACC:ACC + 3]  # NED, from GPS velocity, low-passed: the attitude reference
+        self._pending_pos, self._pending_vel = self.x[PENDING_POS:PENDING_POS + 3], self.x[PENDING_VEL:PENDING_VEL + 3]
+        self._applied_pos, self._applied_vel = self.x[APPLIED_POS:APPLIED_POS + 3], self.x[APPLIED_VEL:APPLIED_VEL + 3]
         self._last_gps: tuple[int, np.ndarray] | None = None
-        self.rates = np.zeros(3)
         self.field_ned: np.ndarray | None = None
         self.origin: LocalFrame | None = None  # about the first fix, as PX4 sets its local origin
-        self.baro_offset: float | None = None
         self.aligned = False
         self.t_us: int | None = None
         self.good_since_us: int | None = None
         self.gps_count = 0
-        # (t_us, pos, vel, corrections applied up to then): a past state seen from now is
-        # pos/vel plus the corrections applied since, so the buffer itself never needs rewriting
-        self._history: deque[tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = deque()
-        self._pending_pos = np.zeros(3)
-        self._pending_vel = np.zeros(3)
-        self._applied_pos = np.zeros(3)
-        self._applied_vel = np.zeros(3)
+        # the last HISTORY_S of samples, oldest first from `_ring[0]` (`_ring[1]` of them): (t_us) and (pos, vel,
+        # corrections applied up to then); a past state seen from now is pos/vel plus the corrections applied
+        # since, so the ring itself never needs rewriting
+        self._history_t_us = np.zeros(HISTORY_START, np.int64)
+        self._history = np.zeros((HISTORY_START, HISTORY_ROW))
+        self._ring = np.zeros(2, np.int64)
+        self._imu = np.zeros(9)  # this sample's accelerometer, gyro and magnetometer, as the compiled step takes them
 
     # --- readiness ----------------------------------------------------------------
     def ready(self) -> bool:
@@ -127,7 +182,8 @@ class Estimator:
         return (self.t_us - self.good_since_us) * 1e-6 >= self.settings.settle_s
 
     def estimate(self) -> Estimate:
-        return Estimate(self.pos.copy(), self.vel.copy(), self.q.copy(), quat_to_euler(self.q), self.rates.copy())
+        e = estimate_of(self.x)
+        return Estimate(e[0:3], e[3:6], e[6:10], e[10:13], e[13:16])
 
     # --- sensors ------------------------------------------------------------------
     def on_sensors(self, r: SensorReadings) -> None:
@@ -137,20 +193,24 @@ class Estimator:
         self.t_us = r.t_us
         if r.accel_frd is None or r.gyro_frd is None or not 0.0 <= dt < 0.5:
             return
-        f = np.array(r.accel_frd)
-        w = np.array(r.gyro_frd)
+        imu = self._imu
+        imu[0:3], imu[3:6] = r.accel_frd, r.gyro_frd
+        f, w, m = imu[0:3], imu[3:6], imu[6:9]
+        if r.mag_frd_t is not None:
+            m[:] = r.mag_frd_t
         if not self.aligned:
             if r.mag_frd_t is not None and self.field_ned is not None:
-                self._align(f, np.array(r.mag_frd_t))
+                self._align(f, m)
             return
-        self._attitude(f, w, None if r.mag_frd_t is None else np.array(r.mag_frd_t), dt)
-        self._propagate(f, dt)
-        if r.baro is not None:
-            self._baro(r.baro.pressure_alt_m)
-        self._history.append((r.t_us, self.pos.copy(), self.vel.copy(), self._applied_pos.copy(),
-                              self._applied_vel.copy()))
-        while self._history and self._history[0][0] < r.t_us - HISTORY_S * 1e6:
-            self._history.popleft()
+        s, field = self.settings, self.field_ned
+        use_mag = r.mag_frd_t is not None and field is not None
+        spread_s = s.correction_spread_s
+        share = min(dt / spread_s, 1.0) if spread_s > 0 else 1.0
+        if self._ring[1] == self._history_t_us.size:
+            self._grow_history()
+        sensor_step(self.x, f, w, m, field if field is not None else E3, use_mag, self.g, s.attitude_gain,
+                    s.heading_gain, share, s.baro_gain, math.nan if r.baro is None else r.baro.pressure_alt_m,
+                    self._history_t_us, self._history, self._ring, r.t_us, dt)
 
     def on_gps(self, fix: GpsFix, now_us: int) -> None:
         if fix.fix_type < 3:
@@ -187,10 +247,26 @@ class Estimator:
         self._pending_vel += k_vel_from_pos * dp + k_vel * dv
 
     # --- internals ----------------------------------------------------------------
+    def _grow_history(self) -> None:
+        """Twice the room, the samples kept in order from the start."""
+        order = self._history_order()
+        size = 2 * self._history_t_us.size
+        times, rows = np.zeros(size, np.int64), np.zeros((size, HISTORY_ROW))
+        times[:order.size], rows[:order.size] = self._history_t_us[order], self._history[order]
+        self._history_t_us, self._history = times, rows
+        self._ring[:] = (0, order.size)
+
+    def _history_order(self) -> np.ndarray:
+        """The ring's slots, oldest first."""
+        return (self._ring[0] + np.arange(self._ring[1])) % self._history_t_us.size
+
     def _state_at(self, t_us: int) -> tuple[np.ndarray, np.ndarray] | None:
-        if not self._history:
+        """The sample nearest `t_us` (the oldest of equally near ones), seen from now."""
+        order = self._history_order()
+        if not order.size:
             return None
-        _, pos, vel, applied_pos, applied_vel = min(self._history, key=lambda h: abs(h[0] - t_us))
+        row = self._history[order[np.argmin(np.abs(self._history_t_us[order] - t_us))]]
+        pos, vel, applied_pos, applied_vel = row[0:3], row[3:6], row[6:9], row[9:12]
         return pos + (self._applied_pos - applied_pos), vel + (self._applied_vel - applied_vel)
 
     def _align(self, f: np.ndarray, m: np.ndarray) -> None:
@@ -200,31 +276,6 @@ class Estimator:
         m_level = level @ m  # field with the tilt removed, still in the heading frame
         field = self.field_ned
         yaw = wrap_pi(math.atan2(field[1], field[0]) - math.atan2(m_level[1], m_level[0]))  # type: ignore[index]
-        self.q = euler_to_quat(roll, pitch, yaw)
+        self.q[:] = euler_to_quat(roll, pitch, yaw)
         self.aligned = True
         self.good_since_us = self.t_us
-
-    def _attitude(self, f: np.ndarray, w: np.ndarray, m: np.ndarray | None, dt: float) -> None:
-        s = self.settings
-        field = self.field_ned
-        if m is None or field is None:
-            m, field, use_mag = E3, E3, False  # placeholders the compiled step does not read
-        else:
-            use_mag = True
-        self.q = mahony_step(self.q, f, w, m, field, use_mag, self.acc, self.g, s.attitude_gain, s.heading_gain, dt)
-        self.rates = w
-
-    def _propagate(self, f: np.ndarray, dt: float) -> None:
-        spread_s = self.settings.correction_spread_s
-        share = min(dt / spread_s, 1.0) if spread_s > 0 else 1.0
-        propagate(self.pos, self.vel, self._pending_pos, self._pending_vel, self._applied_pos, self._applied_vel,
-                  self.q, f, self.g, share, dt)
-
-    def _baro(self, pressure_alt_m: float) -> None:
-        if self.baro_offset is None:
-            self.baro_offset = pressure_alt_m + self.pos[2]
-            return
-        z_baro = self.baro_offset - pressure_alt_m
-        dz = z_baro - self.pos[2]
-        self.pos[2] += self.settings.baro_gain * dz
-        self.vel[2] += self.settings.baro_gain / 2 * dz

@@ -95,7 +95,7 @@ class EmulatedBoard(Flight):
         self.last_sensor_wall = clock()
         self.last_heartbeat: float | None = None  # wall-clock time of the last boot heartbeat
         self.boot_us: int | None = None
-        self.last_output: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        self.motors_stopped = np.zeros(len(config.vehicle.rotors))  # the reply's motors while not flying
         self.last_control: ControlOutput | None = None
         self.stop_reason = ""
         self._text_id = 0
@@ -178,7 +178,7 @@ class EmulatedBoard(Flight):
         if self.boot_us is None:
             self.boot_us = t_us
         self.estimator.on_sensors(readings)
-        motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        motors = self.motors_stopped
         state = self._state()
         if self.landed_at_us is not None:
             self._disarm_after_landing(t_us)
@@ -186,12 +186,9 @@ class EmulatedBoard(Flight):
             self._tick(state, t_us)
         if self.armed and state is not None and 0.0 < dt < 0.1 and self.landed_at_us is None:
             motors = self.control(state, dt, t_us)
-        self.last_output = motors
         # Telemetry and heartbeat go out before the reply and on the simulation clock, like PX4 SITL's
         # streams: in lockstep the bench then sees each step's messages with that step's reply.
-        self.telemetry.step(t_us, state)
-        self.link.send_fields("HIL_ACTUATOR_CONTROLS", codec.hil_actuator_controls_fields(
-            t_us, motors, self.armed, lockstep=self.config.lockstep))
+        self.telemetry.step(t_us, state, motors)
 
     def _tick(self, state: VehicleState | None, t_us: int) -> None:
         """The navigator's rate: mode logic, failsafes, home, the ground station's streams."""

@@ -178,7 +178,8 @@ class Flight:
         self.hover_thrust_n = self.last_control.thrust_n if self.last_control is not None else nominal_n
 
     # --- the control step ---------------------------------------------------------------------------------
-    def control(self, state: VehicleState, dt: float, t_us: int) -> tuple[float, ...]:
+    def control(self, state: VehicleState, dt: float, t_us: int) -> np.ndarray:
+        """The rotors' commands (0..1) of this step."""
         if self.takeoff_d is None:
             self.takeoff_d = float(state.pos_ned[2])
         self.airborne = self.airborne or state.pos_ned[2] < self.takeoff_d - LANDED_CLEARANCE_M
@@ -188,7 +189,7 @@ class Flight:
         # no adaptation while landing: pushing on the ground would read as a heavier vehicle
         out = self.controller.update(state, setpoint, dt, adapt=self.airborne and not descending)
         self.last_control = out
-        motors = tuple(float(u) for u in self.mixer.commands(out.thrust_n, out.torque_frd))
+        motors = self.mixer.commands(out.thrust_n, out.torque_frd)
         if descending:
             self._detect_landing(state, dt, t_us)
         elif self.airborne:  # PX4's hover thrust estimate, for a descent that does not start in a land mode

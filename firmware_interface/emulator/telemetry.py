@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import numpy as np
 from pymavlink.dialects.v20.common import (
     MAV_AUTOPILOT_PX4,
     MAV_STATE_ACTIVE,
@@ -37,8 +38,16 @@ from pymavlink.dialects.v20.common import (
 from firmware_interface import hil_codec as codec
 from firmware_interface.emulator.commander import base_mode_flags
 from firmware_interface.emulator.control import VehicleState
-from firmware_interface.emulator.control.registry import DEBUG_NAME_LENGTH, wire_name
 from firmware_interface.emulator.geometry import euler_to_quat
+from firmware_interface.emulator.reply_frames import (
+    ARMED,
+    CONTROL_STREAMS,
+    GLOBAL_POSITION,
+    LOCKSTEP,
+    STATE_STREAMS,
+    ReplyBuffers,
+    pack_reply,
+)
 
 if TYPE_CHECKING:
     from firmware_interface.emulator.config import NominalVehicle
@@ -85,9 +94,11 @@ class Telemetry:
         self.last_telemetry_us = -TELEMETRY_PERIOD_US
         self.sys_status, self.gps_raw = Schedule(1_000_000), Schedule(200_000)
         self.vfr_hud, self.home = Schedule(250_000), Schedule(2_000_000)
+        self.reply = ReplyBuffers(board.controller.name)
 
     # --- every sensor step -------------------------------------------------------------------------------
-    def step(self, t_us: int, state: VehicleState | None) -> None:
+    def step(self, t_us: int, state: VehicleState | None, motors: np.ndarray) -> None:
+        """What the board sends after a HIL_SENSOR: the streams due, then HIL_ACTUATOR_CONTROLS with `motors`."""
         board = self.board
         if t_us - self.last_heartbeat_us >= HEARTBEAT_PERIOD_US:
             self.last_heartbeat_us = t_us
@@ -95,10 +106,19 @@ class Telemetry:
         if t_us - self.last_extended_state_us >= EXTENDED_SYS_STATE_PERIOD_US:
             self.last_extended_state_us = t_us
             board.link.send("EXTENDED_SYS_STATE", vtol_state=0, landed_state=board.landed_state)
+        reply, link = self.reply, board.link
+        flags = (ARMED if board.armed else 0) | (LOCKSTEP if board.config.lockstep else 0)
         if t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
             self.last_telemetry_us = t_us
-            self._attitude_and_position(t_us, state)
-            self._control_internals(t_us)
+            flags |= STATE_STREAMS | self._stream_values()
+            pos_ned, vel_ned, eta, rates_frd = state.pos_ned, state.vel_ned, state.eta, state.rates_frd
+        else:
+            pos_ned = vel_ned = eta = rates_frd = reply.unused
+        reply.link[:] = (link.encoder.seq, link.encoder.system_id, link.encoder.component_id)
+        count = pack_reply(reply.frames, reply.ends, reply.link, flags, t_us, (t_us - (board.boot_us or t_us)) // 1000,
+                           pos_ned, vel_ned, eta, rates_frd, reply.origin, reply.home_d, reply.eta_cmd,
+                           reply.thrust, reply.debug, reply.debug_name, motors)
+        link.send_frames(reply.frames, reply.ends, count)
 
     def heartbeat(self) -> None:
         board = self.board
@@ -112,41 +132,22 @@ class Telemetry:
         board.link.send("HEARTBEAT", type=vehicle_type(len(board.config.vehicle.rotors)), autopilot=MAV_AUTOPILOT_PX4,
                         base_mode=base_mode, custom_mode=int(mode), system_status=status, mavlink_version=3)
 
-    def _attitude_and_position(self, t_us: int, state: VehicleState) -> None:
-        board = self.board
-        boot_ms = (t_us - (board.boot_us or t_us)) // 1000
-        roll, pitch, yaw = (float(a) for a in state.eta)
-        p, q, r = (float(w) for w in state.rates_frd)
-        board.link.send("ATTITUDE", time_boot_ms=boot_ms, roll=roll, pitch=pitch, yaw=yaw, rollspeed=p,
-                        pitchspeed=q, yawspeed=r)
-        pos, vel = state.pos_ned, state.vel_ned
-        board.link.send("LOCAL_POSITION_NED", time_boot_ms=boot_ms, x=float(pos[0]), y=float(pos[1]),
-                        z=float(pos[2]), vx=float(vel[0]), vy=float(vel[1]), vz=float(vel[2]))
+    def _stream_values(self) -> int:
+        """The 50 Hz streams' values besides the state into the reply's buffers; returns which of them go out."""
+        board, reply, flags = self.board, self.reply, 0
         origin = board.local_frame()
-        if origin is not None:  # what a ground station draws on its map (PX4 streams it too)
-            lat, lon, alt = origin.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
-            home = board.home
-            relative = float(home[2] - pos[2]) if home is not None else -float(pos[2])
-            board.link.send("GLOBAL_POSITION_INT", time_boot_ms=boot_ms, lat=round(lat * 1e7), lon=round(lon * 1e7),
-                            alt=round(alt * 1000), relative_alt=round(relative * 1000),
-                            vx=round(float(vel[0]) * 100), vy=round(float(vel[1]) * 100),
-                            vz=round(float(vel[2]) * 100), hdg=round(math.degrees(yaw) % 360 * 100))
-
-    def _control_internals(self, t_us: int) -> None:
-        board = self.board
+        if origin is not None:  # GLOBAL_POSITION_INT: what a ground station draws on its map (PX4 streams it too)
+            flags |= GLOBAL_POSITION
+            reply.origin[:] = origin.constants
+            reply.home_d = float(board.home[2]) if board.home is not None else math.nan
         out = board.last_control
-        if out is None or not board.armed:
-            return
-        boot_ms = (t_us - (board.boot_us or t_us)) // 1000
-        q_cmd = euler_to_quat(*(float(a) for a in out.eta_cmd))
-        thrust = collective_fraction(out.thrust_n, board.config.vehicle)
-        board.link.send("ATTITUDE_TARGET", time_boot_ms=boot_ms, type_mask=0, q=[float(c) for c in q_cmd],
-                        body_roll_rate=0.0, body_pitch_rate=0.0, body_yaw_rate=0.0, thrust=thrust)
-        controller = board.controller
-        values = [float(out.internals[k]) for k in controller.internal_keys]
-        name = wire_name(controller.name).ljust(DEBUG_NAME_LENGTH, "\0")
-        board.link.send("DEBUG_FLOAT_ARRAY", time_usec=t_us, name=name, array_id=1,
-                        data=values + [0.0] * (58 - len(values)))
+        if out is not None and board.armed:  # ATTITUDE_TARGET and DEBUG_FLOAT_ARRAY
+            flags |= CONTROL_STREAMS
+            reply.eta_cmd[:] = out.eta_cmd
+            reply.thrust = collective_fraction(out.thrust_n, board.config.vehicle)
+            keys = board.controller.internal_keys
+            reply.debug[:len(keys)] = [out.internals[k] for k in keys]
+        return flags
 
     # --- at the navigator's rate: the ground station's streams ------------------------------------------
     def ground_station(self, t_us: int, state: VehicleState | None) -> None:

@@ -1,5 +1,5 @@
-"""Compile the flight code before the board answers: a few steps of the configured estimator, controller and
-mixer on a vehicle at rest, in process, with nothing sent.
+"""Compile the flight code before the board answers: a few steps of the configured estimator, controller,
+mixer and reply frames on a vehicle at rest, in process, with nothing sent.
 
 Compiling a law takes seconds the first time on a machine (later only loading it from the cache, ~0.1 s).
 Done at the first HIL_SENSOR instead, it would stall the first steps past the bench's lockstep watchdog; done
@@ -14,12 +14,21 @@ import sys
 
 import numpy as np
 
-from firmware_interface.emulator.compiled import cache_dir, freeze
+from firmware_interface.emulator.compiled import FLIGHT_CODE
 from firmware_interface.emulator.config import EmulatorConfig, build_config
 from firmware_interface.emulator.control import Setpoint, VehicleState
 from firmware_interface.emulator.control.registry import CONTROLLERS, make_controller
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
+from firmware_interface.emulator.reply_frames import (
+    ARMED,
+    CONTROL_STREAMS,
+    GLOBAL_POSITION,
+    LOCKSTEP,
+    STATE_STREAMS,
+    ReplyBuffers,
+    pack_reply,
+)
 from firmware_interface.emulator.trajectory import quintic_sample
 from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
 
@@ -31,8 +40,8 @@ def compile_flight_code(config: EmulatorConfig) -> None:
     g = config.vehicle.g
     estimator = Estimator(config.estimator, g)
     estimator.on_gps(GpsFix(0, 47.4, 8.5, 500.0, (0.0, 0.0, 0.0), 1.0, 1.0), 0)  # the origin and the field
-    field = estimator.field_ned
-    assert field is not None
+    field, origin = estimator.field_ned, estimator.origin
+    assert field is not None and origin is not None
     for k in range(1, 4):  # align, then attitude, propagation and baro
         estimator.on_sensors(SensorReadings(k * STEP_US, (0.0, 0.0, -g), (0.0, 0.0, 0.0), tuple(field.tolist()),
                                             Baro(95000.0, 15.0, 500.0)))
@@ -43,9 +52,14 @@ def compile_flight_code(config: EmulatorConfig) -> None:
     for _ in range(2):  # the differentiator starts on the first, steps on the second
         out = controller.update(state, setpoint, STEP_US * 1e-6)
     controller.reset()
-    Mixer(config.vehicle).commands(out.thrust_n, out.torque_frd)
+    motors = Mixer(config.vehicle).commands(out.thrust_n, out.torque_frd)
+    reply = ReplyBuffers(controller.name)
+    reply.origin[:] = origin.constants
+    for flags in (0, STATE_STREAMS | GLOBAL_POSITION | CONTROL_STREAMS | ARMED | LOCKSTEP):
+        pack_reply(reply.frames, reply.ends, reply.link, flags, STEP_US, 0, e.pos_ned, e.vel_ned, e.eta, e.rates_frd,
+                   reply.origin, reply.home_d, reply.eta_cmd, reply.thrust, reply.debug, reply.debug_name, motors)
     quintic_sample(np.zeros((3, 6)), 0.0)  # the navigator's moves
-    freeze()
+    FLIGHT_CODE.freeze()
 
 
 def main() -> int:
@@ -53,7 +67,7 @@ def main() -> int:
     (the setup step of `make`), so that no run pays for it."""
     for controller in CONTROLLERS:
         compile_flight_code(build_config({"controller": controller}))
-    print(f"flight code compiled for {', '.join(CONTROLLERS)} in {cache_dir()}")
+    print(f"flight code compiled for {', '.join(CONTROLLERS)} in {FLIGHT_CODE.cache_dir}")
     return 0
 
 
