@@ -108,3 +108,16 @@ def test_it_hovers_on_the_plant_fmu_from_an_offset_start(plugin):
     settled = trace.t > 5.0
     assert np.abs(trace.pos[0] - trace.ref[0]).max() > 0.4  # it really started off the setpoint
     assert np.abs(trace.pos[settled] - trace.ref[settled]).max() < 0.05
+
+
+def test_a_runtime_gain_swapped_in_flight_takes_effect_at_the_next_step(plugin):
+    """A PARAM_SET replaces the frozen gains model (emulator/params.py); the step must read the new one, not a copy
+    packed before (`base.GainValues`)."""
+    gain = plugin.runtime_gains[0]
+    swapped, kept = plugin.build(NOMINAL, plugin.gains()), plugin.build(NOMINAL, plugin.gains())
+    for _ in range(3):
+        swapped.update(at_rest((0.5, -0.4, -4.5)), hold(), DT)
+        kept.update(at_rest((0.5, -0.4, -4.5)), hold(), DT)
+    swapped.gains = swapped.gains.model_copy(update={gain: 2 * getattr(swapped.gains, gain)})
+    after, unchanged = (c.update(at_rest((0.5, -0.4, -4.5)), hold(), DT) for c in (swapped, kept))
+    assert after.thrust_n != unchanged.thrust_n or not np.array_equal(after.eta_cmd, unchanged.eta_cmd)

@@ -13,23 +13,27 @@ import math
 
 import numpy as np
 
-from firmware_interface.emulator.compiled import flight_code
+from firmware_interface.emulator.compiled import flight_code, shared_maths
 from firmware_interface.emulator.control.base import (
     E3,
+    INTERNALS,
     ControlOutput,
+    GainValues,
     Nominal,
     Setpoint,
     VehicleState,
     angle_error,
     body_torque,
     command_from_force,
+    control_output,
+    step_output,
 )
-from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator
+from firmware_interface.emulator.control.differentiator import ThirdOrderDifferentiator, differentiate
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
-from firmware_interface.emulator.geometry import coriolis_matrix, inertia_matrix_euler, mat_vec
+from firmware_interface.emulator.geometry import coriolis_matrix, euler_rates, inertia_matrix_euler, mat_vec
 
 
-@flight_code
+@shared_maths
 def position_step(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray, vel_cmd: np.ndarray,
                   acc_cmd: np.ndarray, m: float, g: float, k1: float, k2: float) -> tuple[np.ndarray, np.ndarray]:
     """(thrust force NED in N, e2) of the position loop."""
@@ -39,7 +43,7 @@ def position_step(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray,
     return m * (accel - g * E3), e2
 
 
-@flight_code
+@shared_maths
 def attitude_step(eta: np.ndarray, eta_dot: np.ndarray, eta_cmd: np.ndarray, eta_s_dot: np.ndarray,
                   eta_s_ddot: np.ndarray, inertia: np.ndarray, k3: float, k4: float) -> np.ndarray:
     """Body torque (FRD, N·m) of the attitude loop, τ_η mapped through W⁻ᵀ."""
@@ -60,6 +64,23 @@ class BacksteppingGains(ControllerGains):
     max_tilt: float = math.radians(35)
 
 
+@flight_code
+def backstepping_step(pos_ned: np.ndarray, vel_ned: np.ndarray, eta: np.ndarray, rates_frd: np.ndarray,
+                      pos_cmd: np.ndarray, vel_cmd: np.ndarray, acc_cmd: np.ndarray, yaw_cmd: float, gains: np.ndarray,
+                      g: float, m: float, z: np.ndarray, a_d: np.ndarray, b_d: np.ndarray, started: bool,
+                      inertia: np.ndarray, dt: float) -> np.ndarray:
+    """Both loops of one step (the differentiator advanced in place): `step_output` with e2 and u1 as internals;
+    `gains` = (k1, k2, k3, k4, max tilt)."""
+    force, e2 = position_step(pos_ned, vel_ned, pos_cmd, vel_cmd, acc_cmd, m, g, gains[0], gains[1])
+    eta_cmd, thrust = command_from_force(force, yaw_cmd, gains[4], 0.2 * m * g, eta)
+    differentiate(z, a_d, b_d, started, eta_cmd, dt)
+    torque = attitude_step(eta, euler_rates(eta, rates_frd), eta_cmd, z[1], z[2], inertia, gains[2], gains[3])
+    out = step_output(thrust, torque, eta_cmd, 4)
+    out[INTERNALS:INTERNALS + 3] = e2
+    out[INTERNALS + 3] = thrust
+    return out
+
+
 class Backstepping:
     name = "backstepping"
     internal_keys = ("e2_x", "e2_y", "e2_z", "thrust_n")
@@ -68,20 +89,18 @@ class Backstepping:
         self.nominal = nominal
         self.gains = gains
         self.differentiator = ThirdOrderDifferentiator(gains.differentiator_bandwidth)
+        self.step_gains = GainValues(("k1", "k2", "k3", "k4", "max_tilt"))
 
     def reset(self) -> None:
         self.differentiator.reset()
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
-        k, g, m = self.gains, self.nominal.g, self.nominal.mass
-        force, e2 = position_step(state.pos_ned, state.vel_ned, setpoint.pos_ned, setpoint.vel_ned, setpoint.acc_ned,
-                                  m, g, k.k1, k.k2)
-        eta_cmd, thrust = command_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g, state.eta)
-        _, eta_s_dot, eta_s_ddot = self.differentiator.update(eta_cmd, dt)
-        torque = attitude_step(state.eta, state.eta_dot, eta_cmd, eta_s_dot, eta_s_ddot, self.nominal.inertia,
-                               k.k3, k.k4)
-        internals = {"e2_x": e2[0], "e2_y": e2[1], "e2_z": e2[2], "thrust_n": thrust}
-        return ControlOutput(thrust, torque, eta_cmd, internals)
+        out = backstepping_step(state.pos_ned, state.vel_ned, state.eta, state.rates_frd, setpoint.pos_ned,
+                                setpoint.vel_ned, setpoint.acc_ned, setpoint.yaw, self.step_gains.of(self.gains),
+                                self.nominal.g, self.nominal.mass, *self.differentiator.step_arrays(dt),
+                                self.nominal.inertia, dt)
+        return control_output(out, self.internal_keys)
+
 
 PLUGIN = ControllerPlugin(Backstepping, BacksteppingGains, param_prefix="BS",
                           runtime_gains=("k1", "k2", "k3", "k4"))

@@ -8,13 +8,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import Protocol
 
 import numpy as np
 
-from firmware_interface.emulator.compiled import flight_code, shared_maths
-from firmware_interface.emulator.geometry import body_from_euler_torque, euler_rates, wrap_pi
+from firmware_interface.emulator.compiled import shared_maths
+from firmware_interface.emulator.geometry import body_from_euler_torque, wrap_pi
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2
 
 E3 = np.array((0.0, 0.0, 1.0))
@@ -28,10 +27,6 @@ class VehicleState:
     vel_ned: np.ndarray
     eta: np.ndarray  # roll, pitch, yaw (rad)
     rates_frd: np.ndarray  # rad/s
-
-    @cached_property
-    def eta_dot(self) -> np.ndarray:
-        return euler_rates(self.eta, self.rates_frd)
 
 
 @dataclass(frozen=True)
@@ -98,7 +93,7 @@ def collective_thrust(uz: float, roll: float, pitch: float) -> float:
     return uz / max(math.cos(roll) * math.cos(pitch), 0.5)
 
 
-@flight_code
+@shared_maths
 def command_from_force(force_ned: np.ndarray, yaw: float, max_tilt: float, min_lift: float,
                        eta: np.ndarray) -> tuple[np.ndarray, float]:
     """(η_cmd, u1): the attitude that points the thrust along `force_ned` and the collective thrust that gives
@@ -124,3 +119,40 @@ def sat(x: np.ndarray, boundary: float) -> np.ndarray:
 def body_torque(tau_euler: np.ndarray, eta: np.ndarray) -> np.ndarray:
     """The paper's τ lives in Euler coordinates (J η̈ + C η̇ = τ); the rotors apply τ_body = W⁻ᵀ τ."""
     return body_from_euler_torque(eta, tau_euler)
+
+
+# A compiled control step returns one array: the collective thrust (N), the body torque (FRD, N·m), η_cmd, then the
+# law's internals in the order of its `internal_keys`.
+INTERNALS = 7
+
+
+@shared_maths
+def step_output(thrust_n: float, torque_frd: np.ndarray, eta_cmd: np.ndarray, internals: int) -> np.ndarray:
+    """A step's output array with room for `internals` values after η_cmd."""
+    out = np.empty(INTERNALS + internals)
+    out[0] = thrust_n
+    out[1:4] = torque_frd
+    out[4:7] = eta_cmd
+    return out
+
+
+def control_output(out: np.ndarray, internal_keys: tuple[str, ...]) -> ControlOutput:
+    """A compiled step's output array as the contract's `ControlOutput` (its arrays are views of it)."""
+    return ControlOutput(float(out[0]), out[1:4], out[4:7],
+                         dict(zip(internal_keys, out[INTERNALS:].tolist(), strict=True)))
+
+
+class GainValues:
+    """A gains model's values in a fixed order, as compiled code takes them; packed again only when the model is
+    swapped (a PARAM_SET replaces the frozen model)."""
+
+    def __init__(self, names: tuple[str, ...]) -> None:
+        self.names = names
+        self._packed_from: object = None
+        self._values = np.zeros(len(names))
+
+    def of(self, gains: object) -> np.ndarray:
+        if gains is not self._packed_from:
+            self._values = np.array([float(getattr(gains, name)) for name in self.names])
+            self._packed_from = gains
+        return self._values

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from firmware_interface.emulator.compiled import flight_code
+from firmware_interface.emulator.compiled import flight_code, shared_maths
 
 
 def _expm(a: np.ndarray) -> np.ndarray:
@@ -27,14 +27,26 @@ def _expm(a: np.ndarray) -> np.ndarray:
     return result
 
 
-@flight_code
-def step_exact(a_d: np.ndarray, b_d: np.ndarray, z: np.ndarray, v: np.ndarray) -> None:
-    """z ← A_d z + B_d vᵀ in place (each column of z one channel)."""
+@shared_maths
+def differentiate(z: np.ndarray, a_d: np.ndarray, b_d: np.ndarray, started: bool, v: np.ndarray, dt: float) -> None:
+    """z ← A_d z + B_d vᵀ in place (each column of z one channel); the first sample starts z at (v, 0, 0)."""
+    if not started:
+        z[:, :] = 0.0
+        z[0, :] = v
+        return
+    if dt <= 0:
+        return
     for channel in range(z.shape[1]):
         value, first, second = z[0, channel], z[1, channel], z[2, channel]
         for row in range(3):
             z[row, channel] = (a_d[row, 0] * value + a_d[row, 1] * first + a_d[row, 2] * second
                                + b_d[row] * v[channel])
+
+
+@flight_code
+def differentiator_step(z: np.ndarray, a_d: np.ndarray, b_d: np.ndarray, started: bool, v: np.ndarray,
+                        dt: float) -> None:
+    differentiate(z, a_d, b_d, started, v, dt)
 
 
 class ThirdOrderDifferentiator:
@@ -59,13 +71,17 @@ class ThirdOrderDifferentiator:
         exact = _expm(augmented)
         self._ad, self._bd, self._dt = exact[:3, :3].copy(), exact[:3, 3].copy(), dt
 
+    def step_arrays(self, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+        """(z, A_d, B_d, started) for the compiled `differentiate` of a step of `dt`, discretised for it; the
+        differentiator counts as started from this step on."""
+        started = self._started
+        if started and dt > 0 and dt != self._dt:
+            self._discretise(dt)
+        self._started = True
+        return self.z, self._ad, self._bd, started
+
     def update(self, v: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if not self._started:
-            self.z[:] = 0.0
-            self.z[0] = v
-            self._started = True
-        elif dt > 0:
-            if dt != self._dt:
-                self._discretise(dt)
-            step_exact(self._ad, self._bd, self.z, np.asarray(v, dtype=np.float64))
+        """(value, first, second derivative) after the sample `v`."""
+        z, a_d, b_d, started = self.step_arrays(dt)
+        differentiator_step(z, a_d, b_d, started, np.asarray(v, dtype=np.float64), dt)
         return self.z[0].copy(), self.z[1].copy(), self.z[2].copy()

@@ -18,21 +18,25 @@ import math
 import numpy as np
 from pydantic import Field
 
-from firmware_interface.emulator.compiled import flight_code
-from firmware_interface.emulator.control.attitude import SlidingModeAttitude
+from firmware_interface.emulator.compiled import flight_code, shared_maths
+from firmware_interface.emulator.control.attitude import SlidingModeAttitude, sliding_mode_attitude
 from firmware_interface.emulator.control.base import (
     E3,
+    INTERNALS,
     ControlOutput,
+    GainValues,
     Nominal,
     Setpoint,
     VehicleState,
     command_from_force,
+    control_output,
+    step_output,
 )
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
 from firmware_interface.emulator.geometry import dot
 
 
-@flight_code
+@shared_maths
 def position_law(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray, vel_cmd: np.ndarray,
                  acc_cmd: np.ndarray, m_hat: float, d_hat: np.ndarray, s1_filtered: np.ndarray, g: float, c1: float,
                  lambda1: float, gamma1: float, gamma2: float, d_max: float, mass_min: float, mass_max: float,
@@ -79,6 +83,33 @@ class SmarcGains(ControllerGains):
     max_tilt: float = Field(math.radians(35), gt=0, lt=math.pi / 2)
 
 
+# the gains the compiled step reads, in its order
+STEP_GAINS = ("c1", "lambda1", "gamma1", "gamma2", "d_max", "mass_min", "mass_max", "adaptation_filter_s",
+              "adaptation_deadzone", "max_tilt")
+
+
+@flight_code
+def smarc_step(pos_ned: np.ndarray, vel_ned: np.ndarray, eta: np.ndarray, rates_frd: np.ndarray, pos_cmd: np.ndarray,
+               vel_cmd: np.ndarray, acc_cmd: np.ndarray, yaw_cmd: float, gains: np.ndarray, g: float, m_hat: float,
+               d_hat: np.ndarray, s1_filtered: np.ndarray, adapt: bool, z: np.ndarray, a_d: np.ndarray,
+               b_d: np.ndarray, started: bool, inertia: np.ndarray, j_s: np.ndarray, law: np.ndarray,
+               dt: float) -> np.ndarray:
+    """One step of the position law (d̂_s, the filtered S1 and the differentiator advanced in place), the attitude
+    command, the attitude law: `step_output` with m̂, d̂_s, S1, S2 and u1 as internals."""
+    force, s1, m_hat = position_law(pos_ned, vel_ned, pos_cmd, vel_cmd, acc_cmd, m_hat, d_hat, s1_filtered, g,
+                                    gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7],
+                                    gains[8], adapt, dt)
+    eta_cmd, thrust = command_from_force(force, yaw_cmd, gains[9], 0.2 * m_hat * g, eta)
+    torque, s2 = sliding_mode_attitude(eta, rates_frd, eta_cmd, z, a_d, b_d, started, inertia, j_s, law, dt)
+    out = step_output(thrust, torque, eta_cmd, 11)
+    out[INTERNALS] = m_hat
+    out[INTERNALS + 1:INTERNALS + 4] = d_hat
+    out[INTERNALS + 4:INTERNALS + 7] = s1
+    out[INTERNALS + 7:INTERNALS + 10] = s2
+    out[INTERNALS + 10] = thrust
+    return out
+
+
 class Smarc:
     name = "smarc"
     internal_keys = ("m_hat", "d_hat_x", "d_hat_y", "d_hat_z", "s1_x", "s1_y", "s1_z", "s2_x", "s2_y", "s2_z",
@@ -89,28 +120,23 @@ class Smarc:
         self.gains = gains
         self.attitude = SlidingModeAttitude(nominal.inertia * gains.model_scale, gains.c2, gains.lambda2,
                                             gains.epsilon, gains.boundary_layer, gains.differentiator_bandwidth)
+        self.step_gains = GainValues(STEP_GAINS)
         self.reset()
 
     def reset(self) -> None:
         self.m_hat = self.gains.mass_initial if self.gains.mass_initial is not None else self.nominal.mass
         self.d_hat = np.zeros(3)
-        self.s1 = np.zeros(3)
         self.s1_filtered = np.zeros(3)
         self.attitude.reset()
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
-        k, g = self.gains, self.nominal.g
-        force, self.s1, self.m_hat = position_law(
-            state.pos_ned, state.vel_ned, setpoint.pos_ned, setpoint.vel_ned, setpoint.acc_ned, self.m_hat, self.d_hat,
-            self.s1_filtered, g, k.c1, k.lambda1, k.gamma1, k.gamma2, k.d_max, k.mass_min, k.mass_max,
-            k.adaptation_filter_s, k.adaptation_deadzone, adapt, dt)
-        eta_cmd, thrust = command_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * self.m_hat * g, state.eta)
-        torque = self.attitude.update(state, eta_cmd, dt)
-        internals = {"m_hat": self.m_hat, "d_hat_x": self.d_hat[0], "d_hat_y": self.d_hat[1],
-                     "d_hat_z": self.d_hat[2], "s1_x": self.s1[0], "s1_y": self.s1[1], "s1_z": self.s1[2],
-                     "s2_x": self.attitude.s2[0], "s2_y": self.attitude.s2[1], "s2_z": self.attitude.s2[2],
-                     "thrust_n": thrust}
-        return ControlOutput(thrust, torque, eta_cmd, internals)
+        attitude = self.attitude
+        out = smarc_step(state.pos_ned, state.vel_ned, state.eta, state.rates_frd, setpoint.pos_ned,
+                         setpoint.vel_ned, setpoint.acc_ned, setpoint.yaw, self.step_gains.of(self.gains),
+                         self.nominal.g, self.m_hat, self.d_hat, self.s1_filtered, adapt,
+                         *attitude.differentiator.step_arrays(dt), attitude.inertia, attitude.j_s, attitude.law, dt)
+        self.m_hat = float(out[INTERNALS])
+        return control_output(out, self.internal_keys)
 
 
 PLUGIN = ControllerPlugin(Smarc, SmarcGains, param_prefix="SMARC",

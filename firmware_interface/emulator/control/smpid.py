@@ -16,22 +16,26 @@ import math
 import numpy as np
 from pydantic import Field
 
-from firmware_interface.emulator.compiled import flight_code
-from firmware_interface.emulator.control.attitude import SlidingModeAttitude
+from firmware_interface.emulator.compiled import flight_code, shared_maths
+from firmware_interface.emulator.control.attitude import SlidingModeAttitude, sliding_mode_attitude
 from firmware_interface.emulator.control.base import (
     E3,
+    INTERNALS,
     ControlOutput,
+    GainValues,
     Nominal,
     Setpoint,
     VehicleState,
     angle_error,
     command_from_force,
+    control_output,
     sat,
+    step_output,
 )
 from firmware_interface.emulator.control.plugin import ControllerGains, ControllerPlugin
 
 
-@flight_code
+@shared_maths
 def position_law(pos_ned: np.ndarray, vel_ned: np.ndarray, pos_cmd: np.ndarray, vel_cmd: np.ndarray,
                  acc_cmd: np.ndarray, z_integral: float, m: float, g: float, kp_z: float, kd_z: float, ki_z: float,
                  integral_limit: float, lambda_xy: float, c_xy: float, epsilon_xy: float, boundary: float,
@@ -75,6 +79,36 @@ class SmpidGains(ControllerGains):
     max_tilt: float = math.radians(35)
 
 
+# the gains the compiled step reads, in its order
+STEP_GAINS = ("kp_z", "kd_z", "ki_z", "integral_limit", "lambda_xy", "c_xy", "epsilon_xy", "boundary_layer", "max_tilt",
+              "kp_yaw", "kd_yaw", "ki_yaw", "yaw_integral_limit")
+
+
+@flight_code
+def smpid_step(pos_ned: np.ndarray, vel_ned: np.ndarray, eta: np.ndarray, rates_frd: np.ndarray, pos_cmd: np.ndarray,
+               vel_cmd: np.ndarray, acc_cmd: np.ndarray, yaw_cmd: float, gains: np.ndarray, g: float, m: float,
+               integrals: np.ndarray, adapt: bool, z: np.ndarray, a_d: np.ndarray, b_d: np.ndarray, started: bool,
+               inertia: np.ndarray, j_s: np.ndarray, law: np.ndarray, dt: float) -> np.ndarray:
+    """One step: the position law, the attitude command, the sliding mode attitude law with yaw replaced by a PID
+    (`integrals` = (∫e_z, ∫e_yaw) and the differentiator advanced in place); `step_output` with S of x and y,
+    ∫e_z, S2 of roll and pitch and u1 as internals."""
+    force, s_xy, integrals[0] = position_law(pos_ned, vel_ned, pos_cmd, vel_cmd, acc_cmd, integrals[0], m, g, gains[0],
+                                             gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7],
+                                             adapt, dt)
+    eta_cmd, thrust = command_from_force(force, yaw_cmd, gains[8], 0.2 * m * g, eta)
+    torque, s2 = sliding_mode_attitude(eta, rates_frd, eta_cmd, z, a_d, b_d, started, inertia, j_s, law, dt)
+    e_yaw = angle_error(eta, eta_cmd)[2]
+    if adapt:
+        integrals[1] = min(max(integrals[1] + e_yaw * dt, -gains[12]), gains[12])
+    torque[2] = inertia[2] * (-gains[9] * e_yaw - gains[10] * rates_frd[2] - gains[11] * integrals[1])
+    out = step_output(thrust, torque, eta_cmd, 6)
+    out[INTERNALS:INTERNALS + 2] = s_xy
+    out[INTERNALS + 2] = integrals[0]
+    out[INTERNALS + 3:INTERNALS + 5] = s2[:2]
+    out[INTERNALS + 5] = thrust
+    return out
+
+
 class SlidingModePid:
     name = "smpid"
     internal_keys = ("s_x", "s_y", "z_integral", "s2_x", "s2_y", "thrust_n")
@@ -84,31 +118,20 @@ class SlidingModePid:
         self.gains = gains
         self.attitude = SlidingModeAttitude(nominal.inertia, gains.c2, gains.lambda2, gains.epsilon_att,
                                             gains.boundary_layer, gains.differentiator_bandwidth)
+        self.step_gains = GainValues(STEP_GAINS)
         self.reset()
 
     def reset(self) -> None:
-        self.z_integral = 0.0
-        self.yaw_integral = 0.0
-        self.s_xy = np.zeros(2)
+        self.integrals = np.zeros(2)  # altitude (m·s) and yaw (rad·s)
         self.attitude.reset()
 
     def update(self, state: VehicleState, setpoint: Setpoint, dt: float, adapt: bool = True) -> ControlOutput:
-        k, g, m = self.gains, self.nominal.g, self.nominal.mass
-        force, self.s_xy, self.z_integral = position_law(
-            state.pos_ned, state.vel_ned, setpoint.pos_ned, setpoint.vel_ned, setpoint.acc_ned, self.z_integral, m, g,
-            k.kp_z, k.kd_z, k.ki_z, k.integral_limit, k.lambda_xy, k.c_xy, k.epsilon_xy, k.boundary_layer, adapt, dt)
-        eta_cmd, thrust = command_from_force(force, setpoint.yaw, k.max_tilt, 0.2 * m * g, state.eta)
-        torque = self.attitude.update(state, eta_cmd, dt)
-        # yaw is fully actuated: replace the sliding mode yaw torque by a PID on the yaw error
-        e_yaw = angle_error(state.eta, eta_cmd)[2]
-        if adapt:
-            self.yaw_integral = float(np.clip(self.yaw_integral + e_yaw * dt, -k.yaw_integral_limit,
-                                               k.yaw_integral_limit))
-        iz = self.nominal.inertia[2]
-        torque[2] = iz * (-k.kp_yaw * e_yaw - k.kd_yaw * state.rates_frd[2] - k.ki_yaw * self.yaw_integral)
-        internals = {"s_x": self.s_xy[0], "s_y": self.s_xy[1], "z_integral": self.z_integral,
-                     "s2_x": self.attitude.s2[0], "s2_y": self.attitude.s2[1], "thrust_n": thrust}
-        return ControlOutput(thrust, torque, eta_cmd, internals)
+        attitude = self.attitude
+        out = smpid_step(state.pos_ned, state.vel_ned, state.eta, state.rates_frd, setpoint.pos_ned,
+                         setpoint.vel_ned, setpoint.acc_ned, setpoint.yaw, self.step_gains.of(self.gains),
+                         self.nominal.g, self.nominal.mass, self.integrals, adapt,
+                         *attitude.differentiator.step_arrays(dt), attitude.inertia, attitude.j_s, attitude.law, dt)
+        return control_output(out, self.internal_keys)
 
 
 PLUGIN = ControllerPlugin(SlidingModePid, SmpidGains, param_prefix="SMPID",
