@@ -58,6 +58,9 @@ class Link:
         self.frames_out = 0
         self._closed = False
         self._batch: bytearray | None = None
+        # the batch's frames for the tap, shown it once they are written (a block of frames with their ends, or one
+        # frame): the tap (the run's tlog) then costs nothing before the write, which a lockstep step waits for
+        self._tap_after_write: list[tuple[bytes, list[int]]] = []
         self._packed = np.zeros(PACKED_MAX, np.uint8)  # what `pack` writes into
 
     def send(self, message: str, /, **fields: Any) -> None:
@@ -84,12 +87,12 @@ class Link:
         watches or alters single frames."""
         self.encoder.seq = (self.encoder.seq + count) & 0xFF
         if self.faults is None and self._batch is not None:  # the common case: a step's frames into its write
-            self._batch += frames[:ends[count - 1]].tobytes()
-            self.bytes_out += int(ends[count - 1])
+            block = frames[:ends[count - 1]].tobytes()
+            self._batch += block
+            self.bytes_out += len(block)
             self.frames_out += count
             if self.tap is not None:
-                bounds = [0, *ends[:count].tolist()]
-                self.tap([frames[a:b].tobytes() for a, b in itertools.pairwise(bounds)])
+                self._tap_after_write.append((block, ends[:count].tolist()))
             return
         start = 0
         for k in range(count):
@@ -99,12 +102,15 @@ class Link:
     def send_frame(self, frame: bytes) -> None:
         self.bytes_out += len(frame)
         self.frames_out += 1
-        if self.tap is not None:
-            self.tap((frame,))
         wire = frame if self.faults is None else self.faults.outgoing(frame)
         if self._batch is not None:
+            if self.tap is not None:
+                self._tap_after_write.append((frame, [len(frame)]))
             self._batch += wire
-        elif wire:
+            return
+        if self.tap is not None:
+            self.tap((frame,))
+        if wire:
             self.transport.write(wire)
 
     def begin_batch(self) -> None:
@@ -114,8 +120,11 @@ class Link:
 
     def flush(self) -> None:
         batch, self._batch = self._batch, None
+        tapped, self._tap_after_write = self._tap_after_write, []
         if batch:
             self.transport.write(bytes(batch))
+        if tapped and self.tap is not None:
+            self.tap([block[a:b] for block, ends in tapped for a, b in itertools.pairwise([0, *ends])])
 
     def receive(self, timeout_s: float) -> list[Message]:
         """Messages that arrive within `timeout_s` (returns as soon as one batch is in)."""
