@@ -20,7 +20,16 @@ from pymavlink.dialects.v20.common import MAV_ESTIMATOR_TYPE_NAIVE, MAV_FRAME_LO
 
 from firmware_interface.compiled_code import CompiledCode
 from firmware_interface.link import frame_packing
-from firmware_interface.link.frame_packing import PAYLOAD, finish_frame, put_f32, put_u8, put_u16, put_u32, put_u64
+from firmware_interface.link.frame_packing import (
+    PAYLOAD,
+    finish_frame,
+    message_layout,
+    put_f32,
+    put_u8,
+    put_u16,
+    put_u32,
+    put_u64,
+)
 
 inline = CompiledCode.inline
 
@@ -45,14 +54,10 @@ UINT16_MAX, INT16_MAX, INT32_MAX = 65535, 32767, 2**31 - 1
 SETPOINT_IGNORE_YAW_RATE = common.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE  # position, velocity, acc. and yaw used
 
 
-def _layout(message: type) -> tuple[int, int, int]:
-    """(msgid, CRC_EXTRA, payload bytes before trimming) of a message, as pymavlink has common.xml."""
-    return message.id, message.crc_extra, message.unpacker.size  # type: ignore[attr-defined]
 
-
-HIL_SENSOR, HIL_GPS = _layout(common.MAVLink_hil_sensor_message), _layout(common.MAVLink_hil_gps_message)
-SETPOINT = _layout(common.MAVLink_set_position_target_local_ned_message)
-ODOMETRY, HIL_STATE_QUATERNION = _layout(common.MAVLink_odometry_message), _layout(
+HIL_SENSOR, HIL_GPS = message_layout(common.MAVLink_hil_sensor_message), message_layout(common.MAVLink_hil_gps_message)
+SETPOINT = message_layout(common.MAVLink_set_position_target_local_ned_message)
+ODOMETRY, HIL_STATE_QUATERNION = message_layout(common.MAVLink_odometry_message), message_layout(
     common.MAVLink_hil_state_quaternion_message)
 RAD_TO_DEG = 180.0 / math.pi  # as math.degrees multiplies
 

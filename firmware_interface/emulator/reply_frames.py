@@ -22,20 +22,23 @@ from firmware_interface.emulator.geometry import euler_to_quat
 from firmware_interface.geodesy import geodetic_of
 from firmware_interface.hil_codec import ACTUATOR_FLAG_LOCKSTEP, MODE_FLAG_ARMED, MODE_FLAG_CUSTOM, MODE_FLAG_HIL
 from firmware_interface.hil_frames import INT16_MAX, INT32_MAX, UINT16_MAX, clamp_round
-from firmware_interface.link.frame_packing import PAYLOAD, finish_frame, put_f32, put_u8, put_u16, put_u32, put_u64
+from firmware_interface.link.frame_packing import (
+    PAYLOAD,
+    finish_frame,
+    message_layout,
+    put_f32,
+    put_u8,
+    put_u16,
+    put_u32,
+    put_u64,
+)
 
-
-def _layout(message: type) -> tuple[int, int, int]:
-    """(msgid, CRC_EXTRA, payload bytes before trimming), as pymavlink has common.xml."""
-    return message.id, message.crc_extra, message.unpacker.size  # type: ignore[attr-defined]
-
-
-ATTITUDE, LOCAL_POSITION_NED = _layout(common.MAVLink_attitude_message), _layout(
+ATTITUDE, LOCAL_POSITION_NED = message_layout(common.MAVLink_attitude_message), message_layout(
     common.MAVLink_local_position_ned_message)
-GLOBAL_POSITION_INT = _layout(common.MAVLink_global_position_int_message)
-ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY = _layout(common.MAVLink_attitude_target_message), _layout(
+GLOBAL_POSITION_INT = message_layout(common.MAVLink_global_position_int_message)
+ATTITUDE_TARGET, DEBUG_FLOAT_ARRAY = message_layout(common.MAVLink_attitude_target_message), message_layout(
     common.MAVLink_debug_float_array_message)
-HIL_ACTUATOR_CONTROLS = _layout(common.MAVLink_hil_actuator_controls_message)
+HIL_ACTUATOR_CONTROLS = message_layout(common.MAVLink_hil_actuator_controls_message)
 DEBUG_VALUES = 58  # DEBUG_FLOAT_ARRAY.data
 CONTROLS = 16  # HIL_ACTUATOR_CONTROLS.controls
 inline = shared_maths
@@ -43,6 +46,7 @@ FRAMES_MAX = 1024  # bytes: the five streams and the reply, whole
 # what a step sends before its reply (`flags`): the state streams, the global position, the control streams; and
 # what the reply says
 STATE_STREAMS, GLOBAL_POSITION, CONTROL_STREAMS, ARMED, LOCKSTEP = 1, 2, 4, 8, 16
+EVERY_FRAME = STATE_STREAMS | GLOBAL_POSITION | CONTROL_STREAMS | ARMED | LOCKSTEP  # a step that sends all
 
 
 @inline

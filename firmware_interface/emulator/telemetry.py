@@ -36,18 +36,11 @@ from pymavlink.dialects.v20.common import (
 )
 
 from firmware_interface import hil_codec as codec
+from firmware_interface.emulator import reply_frames
 from firmware_interface.emulator.commander import base_mode_flags
 from firmware_interface.emulator.control import VehicleState
 from firmware_interface.emulator.geometry import euler_to_quat
-from firmware_interface.emulator.reply_frames import (
-    ARMED,
-    CONTROL_STREAMS,
-    GLOBAL_POSITION,
-    LOCKSTEP,
-    STATE_STREAMS,
-    ReplyBuffers,
-    pack_reply,
-)
+from firmware_interface.emulator.reply_frames import ReplyBuffers, pack_reply
 
 if TYPE_CHECKING:
     from firmware_interface.emulator.config import NominalVehicle
@@ -107,10 +100,10 @@ class Telemetry:
             self.last_extended_state_us = t_us
             board.link.send("EXTENDED_SYS_STATE", vtol_state=0, landed_state=board.landed_state)
         reply, link = self.reply, board.link
-        flags = (ARMED if board.armed else 0) | (LOCKSTEP if board.config.lockstep else 0)
+        flags = (reply_frames.ARMED if board.armed else 0) | (reply_frames.LOCKSTEP if board.config.lockstep else 0)
         if t_us - self.last_telemetry_us >= TELEMETRY_PERIOD_US and state is not None:
             self.last_telemetry_us = t_us
-            flags |= STATE_STREAMS | self._stream_values()
+            flags |= reply_frames.STATE_STREAMS | self._stream_values()
             pos_ned, vel_ned, eta, rates_frd = state.pos_ned, state.vel_ned, state.eta, state.rates_frd
         else:
             pos_ned = vel_ned = eta = rates_frd = reply.unused
@@ -137,12 +130,12 @@ class Telemetry:
         board, reply, flags = self.board, self.reply, 0
         origin = board.local_frame()
         if origin is not None:  # GLOBAL_POSITION_INT: what a ground station draws on its map (PX4 streams it too)
-            flags |= GLOBAL_POSITION
+            flags |= reply_frames.GLOBAL_POSITION
             reply.origin[:] = origin.constants
             reply.home_d = float(board.home[2]) if board.home is not None else math.nan
         out = board.last_control
         if out is not None and board.armed:  # ATTITUDE_TARGET and DEBUG_FLOAT_ARRAY
-            flags |= CONTROL_STREAMS
+            flags |= reply_frames.CONTROL_STREAMS
             reply.eta_cmd[:] = out.eta_cmd
             reply.thrust = collective_fraction(out.thrust_n, board.config.vehicle)
             keys = board.controller.internal_keys

@@ -14,21 +14,14 @@ import sys
 
 import numpy as np
 
+from firmware_interface.emulator import reply_frames
 from firmware_interface.emulator.compiled import FLIGHT_CODE
 from firmware_interface.emulator.config import EmulatorConfig, build_config
 from firmware_interface.emulator.control import Setpoint, VehicleState
 from firmware_interface.emulator.control.registry import CONTROLLERS, make_controller
 from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
-from firmware_interface.emulator.reply_frames import (
-    ARMED,
-    CONTROL_STREAMS,
-    GLOBAL_POSITION,
-    LOCKSTEP,
-    STATE_STREAMS,
-    ReplyBuffers,
-    pack_reply,
-)
+from firmware_interface.emulator.reply_frames import ReplyBuffers, pack_reply
 from firmware_interface.emulator.trajectory import quintic_sample
 from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
 
@@ -55,7 +48,7 @@ def compile_flight_code(config: EmulatorConfig) -> None:
     motors = Mixer(config.vehicle).commands(out.thrust_n, out.torque_frd)
     reply = ReplyBuffers(controller.name)
     reply.origin[:] = origin.constants
-    for flags in (0, STATE_STREAMS | GLOBAL_POSITION | CONTROL_STREAMS | ARMED | LOCKSTEP):
+    for flags in (0, reply_frames.EVERY_FRAME):
         pack_reply(reply.frames, reply.ends, reply.link, flags, STEP_US, 0, e.pos_ned, e.vel_ned, e.eta, e.rates_frd,
                    reply.origin, reply.home_d, reply.eta_cmd, reply.thrust, reply.debug, reply.debug_name, motors)
     quintic_sample(np.zeros((3, 6)), 0.0)  # the navigator's moves

@@ -19,6 +19,11 @@ OVERHEAD = 12  # header and checksum
 inline = CompiledCode.inline
 
 
+def message_layout(message: type) -> tuple[int, int, int]:
+    """(msgid, CRC_EXTRA, payload bytes before trimming) of a pymavlink message class: what a packer needs."""
+    return message.id, message.crc_extra, message.unpacker.size  # type: ignore[attr-defined]
+
+
 @inline
 def put_u8(buf: np.ndarray, at: int, value: int) -> None:
     buf[at] = value & 0xFF
