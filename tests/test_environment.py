@@ -3,11 +3,14 @@ steps, motor faults, disturbance expressions, and nothing but wind before the mi
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 from hil.scenario.environment import Environment
 from hil.scenario.schema import Scenario
+from hil.scenario.wind import BLOCK, KNOT, DrydenTurbulence
 
 
 def environment(**fields) -> Environment:
@@ -49,3 +52,24 @@ def test_before_the_mission_only_the_wind_acts():
     before = env.sample(-3.0)
     assert before.wind_ned == pytest.approx((0, 1, 0)) and before.payload_kg == 0.0
     assert not before.force_ned.any() and before.motor_health == (1.0, 1.0, 1.0, 1.0)
+
+
+def test_turbulence_filtered_ahead_in_blocks_is_the_filter_stepped_one_draw_at_a_time():
+    """The turbulence's generator is its own, so filtering BLOCK steps ahead must give the velocities of the
+    plain rule (three N(0, 1)·√(π/dt) draws a step through the filters, rotated to NED), exactly, across blocks."""
+    dt, heading = 0.004, 0.7
+    ahead = DrydenTurbulence(15 * KNOT, 12.0, 3.0, heading, dt, np.random.default_rng(5))
+    plain = DrydenTurbulence(15 * KNOT, 12.0, 3.0, heading, dt, np.random.default_rng(5))
+    rng, (a_u, b_u, x_u), v, w = plain.rng, plain._u, list(plain._v), list(plain._w)
+
+    def second_order(f: list[float], n: float) -> float:
+        f[8], f[9] = f[0] * f[8] + f[1] * f[9] + f[4] * n, f[2] * f[8] + f[3] * f[9] + f[5] * n
+        return f[6] * f[8] + f[7] * f[9]
+
+    for _ in range(2 * BLOCK + 7):
+        n_u, n_v, n_w = (rng.standard_normal(3) * math.sqrt(math.pi / dt)).tolist()
+        x_u = a_u * x_u + b_u * n_u
+        across, down = second_order(v, n_v), second_order(w, n_w)
+        expected = (x_u * math.cos(heading) - across * math.sin(heading),
+                    x_u * math.sin(heading) + across * math.cos(heading), down)
+        assert ahead.sample() == expected

@@ -74,6 +74,7 @@ class BenchPilot:
         self._params_reported = False
         self._asks: list[Ask] = []
         self.view: PilotView  # the latest, while deciding
+        self._handlers = self._phase_handlers()  # built once: the bench's step waits for every decision
 
     # --- the contract ---------------------------------------------------------------
     def decide(self, view: PilotView) -> Decision | None:
@@ -100,8 +101,7 @@ class BenchPilot:
             figures["board_frame_offset_m"] = [float(v) for v in self.board_offset_ned]
         return figures
 
-    @property
-    def _handlers(self) -> dict[Phase, Any]:
+    def _phase_handlers(self) -> dict[Phase, Any]:
         return {Phase.PREFLIGHT: self._preflight, Phase.OFFBOARD: self._offboard, Phase.TAKEOFF: self._takeoff,
                 Phase.MISSION: self._mission, Phase.LANDING: self._landing, Phase.DISARMING: self._disarming,
                 Phase.GROUNDED: self._grounded}
@@ -195,7 +195,7 @@ class BenchPilot:
         height, roll, pitch = -float(state.pos_ned[2]), float(state.rpy[0]), float(state.rpy[1])
         step = self.judge.mission_step if self.phase is Phase.MISSION else self.judge.take_off_step
         try:
-            step(height, state.on_ground, roll, pitch, self.when())
+            step(height, state.on_ground, roll, pitch, self.when)
         except FlightFailed as exc:
             self.view.emit(str(exc))
             raise RunAborted(str(exc), EXIT_EXPECT_FAILED) from exc

@@ -87,7 +87,8 @@ class FlightWatch:
             self._disarmed_in_air_since = None
             return
         try:
-            self._judge.tumble_check(float(view.truth.rpy[0]), float(view.truth.rpy[1]), self.when(view.now_s))
+            self._judge.tumble_check(float(view.truth.rpy[0]), float(view.truth.rpy[1]),
+                                    lambda: self.when(view.now_s))
         except FlightFailed as exc:
             view.emit(str(exc))
             raise RunAborted(str(exc), EXIT_EXPECT_FAILED) from exc

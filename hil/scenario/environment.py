@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,10 @@ class EnvironmentSample:
     battery_fault: tuple[int, float, float] | None = None  # a failed cell: (cell, Ω gained, V lost), from its time
 
 
+NO_VECTOR = np.zeros(3)  # no force, no torque: one read-only array for every step that has none
+NO_VECTOR.flags.writeable = False
+
+
 class Environment:
     """Evaluates the scenario's environment. Before the mission (t < 0: preflight, take-off) only the
     steady wind and the turbulence act; gusts, disturbances, payload steps and faults are mission events."""
@@ -34,7 +39,9 @@ class Environment:
         self.scenario = scenario
         self.healthy = (1.0,) * rotor_count
         self.steady = np.array(scenario.wind.steady_ned, float)
-        self.gusts = [(g.start_s, g.duration_s, np.array(g.peak_ned, float)) for g in scenario.wind.gusts]
+        # sampled each step of the bench's, whose next step waits for it: plain floats until the arrays it returns
+        self._steady = tuple(self.steady.tolist())
+        self.gusts = [(g.start_s, g.duration_s, tuple(float(v) for v in g.peak_ned)) for g in scenario.wind.gusts]
         turbulence = scenario.wind.turbulence
         self.turbulence = None
         if turbulence is not None:
@@ -43,6 +50,8 @@ class Environment:
                                                turbulence.airspeed_m_s, heading, dt, rng)
         self.force = scenario.disturbance.functions("force_ned")
         self.torque = scenario.disturbance.functions("torque_frd")
+        self._fixed_force = _fixed(scenario.disturbance.force_ned)
+        self._fixed_torque = _fixed(scenario.disturbance.torque_frd)
         self.payload = sorted((p.t_s, p.mass_kg) for p in scenario.payload)
         self.motor_faults = scenario.faults.motors
         failure = scenario.battery.failure if scenario.battery is not None else None
@@ -50,21 +59,36 @@ class Environment:
                                                                          failure.voltage_v))
 
     def sample(self, t: float) -> EnvironmentSample:
-        wind = self.steady.copy()
+        north, east, down = self._steady
         if self.turbulence is not None:
-            wind += self.turbulence.sample()
+            turbulence = self.turbulence.sample()
+            north, east, down = north + turbulence[0], east + turbulence[1], down + turbulence[2]
         if t < 0:
-            return EnvironmentSample(wind, np.zeros(3), np.zeros(3), 0.0, self.healthy)
+            return EnvironmentSample(np.array((north, east, down)), NO_VECTOR, NO_VECTOR, 0.0, self.healthy)
         for start, duration, peak in self.gusts:
-            wind += one_minus_cosine(t, start, duration) * peak
+            shape = one_minus_cosine(t, start, duration)
+            north, east, down = north + shape * peak[0], east + shape * peak[1], down + shape * peak[2]
         payload = 0.0
         for at, mass in self.payload:
             if t >= at:
                 payload = mass
-        health = list(self.healthy)
-        for fault in self.motor_faults:
-            if fault.start_s <= t < fault.end_s:
-                health[fault.motor - 1] = min(health[fault.motor - 1], fault.health)
+        health = self.healthy
+        if self.motor_faults:
+            scaled = list(health)
+            for fault in self.motor_faults:
+                if fault.start_s <= t < fault.end_s:
+                    scaled[fault.motor - 1] = min(scaled[fault.motor - 1], fault.health)
+            health = tuple(scaled)
         failed = self.cell_failure[1] if self.cell_failure is not None and t >= self.cell_failure[0] else None
-        return EnvironmentSample(wind, np.array([f(t) for f in self.force]), np.array([f(t) for f in self.torque]),
-                                 payload, tuple(health), failed)
+        force = self._fixed_force if self._fixed_force is not None else np.array([f(t) for f in self.force])
+        torque = self._fixed_torque if self._fixed_torque is not None else np.array([f(t) for f in self.torque])
+        return EnvironmentSample(np.array((north, east, down)), force, torque, payload, health, failed)
+
+
+def _fixed(components: Sequence[float | str]) -> np.ndarray | None:
+    """A disturbance of numbers only, as the one read-only array every step shares; None for expressions of t."""
+    if any(isinstance(c, str) for c in components):
+        return None
+    vector = np.array(components, float)
+    vector.flags.writeable = False
+    return vector

@@ -9,6 +9,7 @@ import numpy as np
 FT = 0.3048
 KNOT = 0.514444
 TURBULENCE_W20_KT = {"light": 15.0, "moderate": 30.0, "severe": 45.0}  # wind at 20 ft, MIL-F-8785C
+BLOCK = 256  # steps of turbulence filtered at once: ~0.4 ms, which a paced step absorbs (as the sensors' noise)
 
 
 def one_minus_cosine(t: float, start_s: float, duration_s: float) -> float:
@@ -28,6 +29,10 @@ class DrydenTurbulence:
     u is along the mean wind, v across it, w vertical (down in NED). The spectra are normalised so that
     ∫₀^∞ |H(jω)|² dω = σ², which takes white noise of two-sided PSD π: sampled as N(0, 1)·√(π/dt), held
     over the step, through filters discretised exactly.
+
+    The generator is the turbulence's own, so its draws are taken BLOCK steps at a time and filtered ahead: the
+    same numbers in the same order as a step at a time, bit for bit, and off the bench's step (a step's sample
+    is then a row read).
     """
 
     def __init__(self, w20_m_s: float, altitude_m: float, airspeed_m_s: float, heading_rad: float,
@@ -42,6 +47,8 @@ class DrydenTurbulence:
         self._cos, self._sin = math.cos(heading_rad), math.sin(heading_rad)
         self.dt = dt
         self.rng = rng
+        self._ahead: list[tuple[float, float, float]] = []  # the next steps' velocities, filtered ahead
+        self._next = 0  # the row of `_ahead` the next step takes
         self._u = self._first_order(self.sigma_u, self.length_u)
         self._v = self._second_order(self.sigma_v, self.length_v)
         self._w = self._second_order(self.sigma_w, self.length_w)
@@ -70,11 +77,20 @@ class DrydenTurbulence:
         f[8], f[9] = f[0] * x1 + f[1] * x2 + f[4] * n, f[2] * x1 + f[3] * x2 + f[5] * n
         return f[6] * f[8] + f[7] * f[9]
 
-    def sample(self) -> np.ndarray:
-        """Turbulence velocity in NED for this step."""
-        n = (self.rng.standard_normal(3) * math.sqrt(math.pi / self.dt)).tolist()
-        u = self._u
-        u[2] = u[0] * u[2] + u[1] * n[0]
-        along, across, down = u[2], self._step2(self._v, n[1]), self._step2(self._w, n[2])
-        c, s = self._cos, self._sin
-        return np.array((along * c - across * s, along * s + across * c, down))
+    def sample(self) -> tuple[float, float, float]:
+        """Turbulence velocity in NED for this step, m/s."""
+        if self._next == len(self._ahead):
+            self._ahead = self._filter(self.rng.standard_normal((BLOCK, 3)) * math.sqrt(math.pi / self.dt))
+            self._next = 0
+        self._next += 1
+        return self._ahead[self._next - 1]
+
+    def _filter(self, noise: np.ndarray) -> list[tuple[float, float, float]]:
+        """The velocities of the steps driven by `noise` (a row a step), the filters' states carried on."""
+        u, c, s = self._u, self._cos, self._sin
+        velocities = []
+        for n_u, n_v, n_w in noise.tolist():
+            u[2] = u[0] * u[2] + u[1] * n_u
+            along, across, down = u[2], self._step2(self._v, n_v), self._step2(self._w, n_w)
+            velocities.append((along * c - across * s, along * s + across * c, down))
+        return velocities

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -32,6 +32,14 @@ class HoverRef(ReferenceModel):
 class Hover:
     point_ned: tuple[float, float, float]
     yaw: float = 0.0
+    _sample: RefSample = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # the same sample at every step (the bench waits for it): built once, read-only so no reader can change it
+        arrays = np.array(self.point_ned, float), np.zeros(3), np.zeros(3)
+        for array in arrays:
+            array.flags.writeable = False
+        object.__setattr__(self, "_sample", RefSample(*arrays, self.yaw))
 
     def sample(self, t: float) -> RefSample:
-        return RefSample(np.array(self.point_ned, float), np.zeros(3), np.zeros(3), self.yaw)
+        return self._sample
