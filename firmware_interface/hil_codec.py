@@ -230,7 +230,9 @@ def hil_actuator_controls_fields(t_us: int, motors: tuple[float, ...], armed: bo
 def read_actuator_controls(msg: Any, motor_count: int = 4, reversible: bool = False) -> ActuatorOutputs:
     """Motor commands clipped to PX4's ranges: 0..1 for motors, −1..1 for reversible ones."""
     low = -1.0 if reversible else 0.0
-    motors = tuple(min(max(float(c), low), 1.0) if math.isfinite(c) else 0.0 for c in msg.controls[:motor_count])
+    finite = math.isfinite  # a list, not a generator, and comparisons, not min/max: read every step the bench waits
+    motors = tuple([(1.0 if c > 1.0 else low if c < low else float(c)) if finite(c) else 0.0
+                    for c in msg.controls[:motor_count]])
     return ActuatorOutputs(
         t_us=msg.time_usec,
         motors=motors,  # type: ignore[arg-type]

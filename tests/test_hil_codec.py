@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common
@@ -119,6 +121,14 @@ def test_actuator_controls_decode_quad_x_armed_lockstep():
     assert out.armed and out.lockstep and out.mode == 129
     disarmed = codec.read_actuator_controls(common.MAVLink_hil_actuator_controls_message(1, [0.0] * 16, 1, 0))
     assert not disarmed.armed and not disarmed.lockstep
+
+
+def test_actuator_controls_outside_px4s_ranges_are_clipped_and_non_numbers_stop_the_motor():
+    """PX4's outputs: 0..1 for a motor, −1..1 for a reversible one; NaN and ±inf (a broken board) command 0."""
+    controls = [-0.3, math.nan, math.inf, -math.inf, 1.7, -1.5] + [0.0] * 10
+    msg = common.MAVLink_hil_actuator_controls_message(7, controls, 129, 1)
+    assert codec.read_actuator_controls(msg, 6).motors == (0.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+    assert codec.read_actuator_controls(msg, 6, reversible=True).motors == (-0.3, 0.0, 0.0, 0.0, 1.0, -1.0)
 
 
 def test_board_side_actuator_fields_are_zero_while_disarmed():
