@@ -35,11 +35,10 @@ class Hover:
     _sample: RefSample = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        # the same sample at every step (the bench waits for it): built once, read-only so no reader can change it
-        arrays = np.array(self.point_ned, float), np.zeros(3), np.zeros(3)
-        for array in arrays:
-            array.flags.writeable = False
-        object.__setattr__(self, "_sample", RefSample(*arrays, self.yaw))
+        # the same sample at every step (the bench waits for it), built once; its readers only read it (writable
+        # all the same: the compiled packers of a setpoint take writable arrays only)
+        object.__setattr__(self, "_sample", RefSample(np.array(self.point_ned, float), np.zeros(3), np.zeros(3),
+                                                      self.yaw))
 
     def sample(self, t: float) -> RefSample:
         return self._sample
