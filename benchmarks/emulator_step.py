@@ -27,6 +27,7 @@ from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import UdpTransport
 from firmware_interface.px4_modes import FlightMode
+from hil.host.lifetime import die_with_parent
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 
 G = 9.80665
@@ -75,7 +76,8 @@ def in_process(controller: str, frames: list[tuple[bytes, bytes | None]],
 def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tuple[float, float]:
     pair = open_pty_pair()
     proc = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
-                             "--controller", controller])
+                             "--controller", controller],
+                            preexec_fn=die_with_parent)  # noqa: PLW1509 - dies with the benchmark
     session = BoardSession(Link(pair.master), SIMULATED, watchdog_s=2.0)
     session.wait_heartbeat(10.0)
     pair.release_slave()

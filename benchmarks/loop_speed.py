@@ -35,6 +35,7 @@ from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E40
 
 from firmware_interface.link import open_pty_pair  # noqa: E402
 from hil.boards.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
+from hil.host.lifetime import die_with_parent  # noqa: E402
 from hil.host.rt_priority import FIFO_PRIORITY  # noqa: E402
 
 CONTROLLERS = ("smarc", "smpid", "backstepping")
@@ -93,7 +94,8 @@ def machine_floor(json_path: Path) -> Iterator[dict[str, Any]]:
         return
     process = subprocess.Popen([exe, "--default-system", "--quiet", "--threads=1", f"--priority={FIFO_PRIORITY}",
                                 "--policy=fifo", f"--interval={STEP_US}", f"--spike={FLOOR_STALL_US}",
-                                f"--json={json_path}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                                f"--json={json_path}"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               preexec_fn=die_with_parent)  # noqa: PLW1509 - dies with the benchmark
     try:
         yield found
     finally:
@@ -199,7 +201,8 @@ def python_floor_us(steps: int) -> float:
               f"for _ in range({steps}):\n    got = 0\n    while got < 77:\n"
               "        select.select([fd], [], [])\n        got += len(os.read(fd, 65536))\n"
               "    os.write(fd, bytes(93))\n")
-    child = subprocess.Popen([sys.executable, "-c", answer, pair.slave_path])
+    child = subprocess.Popen([sys.executable, "-c", answer, pair.slave_path],
+                             preexec_fn=die_with_parent)  # noqa: PLW1509 - dies with the benchmark
     fd = pair.master.fd
     start = time.perf_counter()
     for _ in range(steps):

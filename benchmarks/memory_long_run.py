@@ -14,6 +14,8 @@ from pathlib import Path
 
 from run_timing import ROOT, benchmark_parser
 
+from hil.host.lifetime import die_with_parent
+
 SAMPLE_S, WARM_UP_S = 5.0, 60.0  # RSS every SAMPLE_S; growth counts after WARM_UP_S of wall time
 # --quick: a 6 s hover (a few seconds of wall time), sampled often enough to fill every figure
 QUICK_DURATION_S, QUICK_SAMPLE_S, QUICK_WARM_UP_S = 6.0, 0.5, 2.0
@@ -42,7 +44,8 @@ def main() -> int:
                             "reference: {type: hover, altitude_m: 10}\n"
                             "wind: {steady_ned: [2, 1, 0], turbulence: {intensity: light}}\n")
         bench = subprocess.Popen([sys.executable, "-m", "hil", "run", str(scenario), "--runs", tmp,
-                                  "--no-report", "--no-gcs"], cwd=ROOT, stdout=subprocess.DEVNULL)
+                                  "--no-report", "--no-gcs"], cwd=ROOT, stdout=subprocess.DEVNULL,
+                                 preexec_fn=die_with_parent)  # noqa: PLW1509 - dies with the benchmark
         started, samples = time.monotonic(), []
         while bench.poll() is None:
             value = rss_mb(bench.pid)

@@ -12,6 +12,7 @@ from typing import Any
 
 import yaml
 
+from hil.host.lifetime import die_with_parent
 from hil.sweep.design import set_path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -55,7 +56,8 @@ def run_metrics(scenario: Path, extra: list[str], runs: Path, accept_exits: tupl
     """Fly `scenario` once as a user types it (telemetry on, no report) into the empty directory `runs`; the
     run's metrics. An exit outside `accept_exits` is printed with its reason."""
     result = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", str(runs),
-                             *extra], capture_output=True, text=True, cwd=ROOT, timeout=900, env=env)
+                             *extra], capture_output=True, text=True, cwd=ROOT, timeout=900, env=env,
+                            preexec_fn=die_with_parent)
     if not runs.is_dir():
         raise RuntimeError(f"hil run {scenario} {' '.join(extra)} exited {result.returncode}: {result.stderr[-500:]}")
     run_dir = next(p for p in runs.iterdir() if p.is_dir())

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from run_timing import ROOT, benchmark_parser, scenario_file
 
+from hil.host.lifetime import die_with_parent
 from hil.sweep import SweepSpec, load_sweep, run_spec
 
 SWEEP = ROOT / "sweeps" / "gust_monte_carlo.yaml"
@@ -39,7 +40,8 @@ def bare_runs_wall_s(scenario: Path, count: int, runs: Path) -> float:
     """Wall time of `count` plain `hil run`s of `scenario` started together."""
     started = time.monotonic()
     procs = [subprocess.Popen([sys.executable, "-m", "hil", "run", "--no-report", str(scenario),
-                               "--runs", str(runs / str(k))], cwd=ROOT, stdout=subprocess.DEVNULL)
+                               "--runs", str(runs / str(k))], cwd=ROOT, stdout=subprocess.DEVNULL,
+                              preexec_fn=die_with_parent)  # noqa: PLW1509 - dies with the benchmark
              for k in range(count)]
     assert all(proc.wait() == 0 for proc in procs)
     return time.monotonic() - started

@@ -14,6 +14,8 @@ from pathlib import Path
 
 from run_timing import ROOT, benchmark_parser, scenario_file
 
+from hil.host.lifetime import die_with_parent
+
 # The subscriber is stopped with SIGINT (as its `except KeyboardInterrupt` expects): its handler is set here, as
 # a benchmark started in a script's background (SIGINT ignored, and inherited) would otherwise never stop it.
 SLOW_SUBSCRIBER = """
@@ -48,7 +50,7 @@ def run(scenario: Path, endpoint: str | None) -> float:
     with tempfile.TemporaryDirectory() as runs:
         args = [sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", runs]
         args += ["--zenoh-connect", endpoint] if endpoint else ["--zenoh-listen", f"tcp/127.0.0.1:{free_port()}"]
-        subprocess.run(args, check=True, capture_output=True, cwd=ROOT)
+        subprocess.run(args, check=True, capture_output=True, cwd=ROOT, preexec_fn=die_with_parent)
         metrics = json.loads((next(Path(runs).iterdir()) / "metrics.json").read_text())
         return metrics["timing"]["realtime_factor"]
 
@@ -60,7 +62,8 @@ def main() -> None:
         alone = run(scenario, None)
         endpoint = f"tcp/127.0.0.1:{free_port()}"
         subscriber = subprocess.Popen([sys.executable, "-c", SLOW_SUBSCRIBER.format(root=str(ROOT), endpoint=endpoint)],
-                                      stdout=subprocess.PIPE, text=True)
+                                      stdout=subprocess.PIPE, text=True,
+                                      preexec_fn=die_with_parent)  # noqa: PLW1509 - dies with the benchmark
         try:
             time.sleep(2.0)
             loaded = run(scenario, endpoint)
