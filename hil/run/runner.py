@@ -12,7 +12,8 @@ import gc
 import shutil
 import time
 import traceback
-from contextlib import ExitStack
+from collections.abc import Callable
+from contextlib import ExitStack, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -169,6 +170,9 @@ class _Run:
         """Attach, fly, judge; fills `report`. What it opens is closed by `stack`."""
         scenario, report, flight = self.scenario, self.report, self.flight
         ready_to_step = beside(_prepare_to_step, "prepare-to-step")  # while the board starts
+        # a run that ends before its first step (Ctrl-C, SIGTERM, a board that never came) still waits for it: a
+        # process that exits while that thread is inside numba's compiler died with SIGSEGV or SIGABRT
+        stack.callback(_waited, ready_to_step)
         settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(flight.parameters),
                                 self.options.speed_factor, flight.plant.rotor_geometry(flight.parameters),
                                 ready_to_step, self.options.spin_wait)
@@ -215,6 +219,12 @@ def _prepare_to_step() -> None:
     after connecting, and over its 1 s with three flights on two cores; now 3-4 ms."""
     warm_up()
     gc.collect()
+
+
+def _waited(join: Callable[[], None]) -> None:
+    """Wait for work started beside the run; its failure only matters to a run that steps, which has raised it."""
+    with suppress(Exception):
+        join()
 
 
 def _no_room(runs_root: Path) -> RunOutcome:
