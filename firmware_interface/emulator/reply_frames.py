@@ -56,24 +56,15 @@ def put_f32s(buf: np.ndarray, at: int, values: np.ndarray) -> None:
 
 
 @inline
-def put_attitude(buf: np.ndarray, at: int, seq: int, link: np.ndarray, boot_ms: int, eta: np.ndarray,
-                 rates_frd: np.ndarray) -> int:
+def put_two_vectors(buf: np.ndarray, at: int, seq: int, link: np.ndarray, layout: tuple[int, int, int], boot_ms: int,
+                    first: np.ndarray, second: np.ndarray) -> int:
+    """ATTITUDE (roll, pitch, yaw; body rates) and LOCAL_POSITION_NED (position; velocity) share a layout:
+    time_boot_ms, then two float32 vectors of three. `layout` is the message's (msgid, CRC_EXTRA, size)."""
     p = at + PAYLOAD
     put_u32(buf, p, boot_ms)
-    put_f32s(buf, p + 4, eta)
-    put_f32s(buf, p + 16, rates_frd)
-    return finish_frame(buf, at, ATTITUDE[2], seq, link[1], link[2], ATTITUDE[0], ATTITUDE[1])
-
-
-@inline
-def put_local_position(buf: np.ndarray, at: int, seq: int, link: np.ndarray, boot_ms: int, pos_ned: np.ndarray,
-                       vel_ned: np.ndarray) -> int:
-    p = at + PAYLOAD
-    put_u32(buf, p, boot_ms)
-    put_f32s(buf, p + 4, pos_ned)
-    put_f32s(buf, p + 16, vel_ned)
-    return finish_frame(buf, at, LOCAL_POSITION_NED[2], seq, link[1], link[2], LOCAL_POSITION_NED[0],
-                        LOCAL_POSITION_NED[1])
+    put_f32s(buf, p + 4, first)
+    put_f32s(buf, p + 16, second)
+    return finish_frame(buf, at, layout[2], seq, link[1], link[2], layout[0], layout[1])
 
 
 @inline
@@ -148,9 +139,9 @@ def pack_reply(frames: np.ndarray, ends: np.ndarray, link: np.ndarray, flags: in
     sequence number, system id, component id); returns how many."""
     seq, count, at = link[0], 0, 0
     if flags & STATE_STREAMS:
-        at = put_attitude(frames, at, seq, link, boot_ms, eta, rates_frd)
+        at = put_two_vectors(frames, at, seq, link, ATTITUDE, boot_ms, eta, rates_frd)
         ends[0] = at
-        at = put_local_position(frames, at, seq + 1, link, boot_ms, pos_ned, vel_ned)
+        at = put_two_vectors(frames, at, seq + 1, link, LOCAL_POSITION_NED, boot_ms, pos_ned, vel_ned)
         ends[1], count = at, 2
         if flags & GLOBAL_POSITION:
             at = put_global_position(frames, at, seq + count, link, boot_ms, pos_ned, vel_ned, eta[2], origin,
