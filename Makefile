@@ -26,10 +26,11 @@ fmu: $(STAMP)
 run: fmu
 	$(BIN)/hil run scenarios/gust.yaml
 
-# two tests at a time, a test file to a worker (its module fixtures' flights are flown once); the few tests that
-# judge the wall clock to the millisecond run alone afterwards (docs/performance.md, "third stop")
+# three tests at a time on two cores (a quarter of the suite waits on the wall clock: paced PX4 flights, exits
+# within 2 s), a test file to a worker (its module fixtures' flights are flown once); the few tests that judge the
+# wall clock to the millisecond run alone afterwards (docs/performance.md, "third stop" and "ninth stop")
 test: fmu
-	$(BIN)/python -m pytest -q -n 2 --dist loadfile -m "not wallclock"
+	$(BIN)/python -m pytest -q -n 3 --dist loadfile -m "not wallclock"
 	$(BIN)/python -m pytest -q -m wallclock
 
 # the unit tests: no end-to-end run, no PX4, nothing slow (under a minute)
