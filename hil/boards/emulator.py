@@ -88,8 +88,12 @@ class EmulatorTarget:
         popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
                                   "--config", str(config_path), "--one-boot-heartbeat", *spin], stdout=log,
                                  stderr=log, start_new_session=True)
+        # it answers every HIL_SENSOR from the first on (its heartbeat comes once its flight code is loaded), so
+        # its first replies are waited for as long as any later one: the few ms a booting PX4 SITL gets let a
+        # loaded machine shift them by steps, and the recording with them (manual_control_loss, three test
+        # files at a time)
         session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors,
+                               free_run_wait_s=settings.watchdog_s, reversible_motors=settings.reversible_motors,
                                motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"emulator on {pair.slave_path}",
                              EmulatorProcess(popen, run_dir / "emulator.log"))

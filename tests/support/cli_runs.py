@@ -26,10 +26,15 @@ def wait_flying(runs: Path, then_s: float = 1.0, timeout_s: float = 60.0) -> Non
     ~1 s simulated), then `then_s` more: with 1 s, past the preflight (~2.5 s simulated, at several times real
     time) and in the air."""
     deadline = time.monotonic() + timeout_s
-    while not any(p.stat().st_size > 0 for p in runs.glob("*/link.tlog")):
+    while not frames_flowed(runs):
         assert time.monotonic() < deadline, f"no MAVLink frame in {runs} after {timeout_s:g} s"
         time.sleep(0.05)
     time.sleep(then_s)
+
+
+def frames_flowed(runs: Path) -> bool:
+    """A run under `runs` has stepped (its link.tlog has its first 64 KiB block: ~1 s simulated)."""
+    return any(p.stat().st_size > 0 for p in runs.glob("*/link.tlog"))
 
 
 def emulator_pids(bench_pid: int) -> list[int]:
