@@ -127,7 +127,7 @@ def _alive(pid: int) -> bool:
 def _signal_run(tmp_path: Path, signals: list[tuple[float, int]],
                 in_flight: bool = False) -> tuple[int, Path, list[int], bool]:
     """Start a run, send each (delay, signal), wait; exit code, run dir, the emulator's pid, and whether the run
-    had stepped when the first signal went. Delays count from the emulator's start, or with `in_flight` from
+    had stepped by the time its signals went. Delays count from the emulator's start, or with `in_flight` from
     the run's first second of stepping: a machine running three test files at a time took over 2 s to start
     stepping. (--keep-failed: a run stopped before the board spoke keeps its directory too.)"""
     runs = tmp_path / "runs"
