@@ -23,7 +23,11 @@ from firmware_interface.link import frame_packing
 from firmware_interface.link.frame_packing import (
     PAYLOAD,
     finish_frame,
+    get_f32,
+    get_u32,
+    get_u64,
     message_layout,
+    payload_of,
     put_f32,
     put_u8,
     put_u16,
@@ -88,6 +92,29 @@ def put_hil_sensor(buf: np.ndarray, at: int, seq: int, system_id: int, component
     put_u32(buf, p + 60, updated | (BARO_BITS if baro else 0))
     put_u8(buf, p + 64, 0)  # id
     return finish_frame(buf, at, HIL_SENSOR[2], seq, system_id, component_id, HIL_SENSOR[0], HIL_SENSOR[1])
+
+
+@inline
+def hil_sensor_row(frame: bytes, payload: np.ndarray, row: np.ndarray) -> None:
+    """A HIL_SENSOR frame into the step row it was packed from, as PX4 reads it: a group is present only when
+    every bit of it is in fields_updated (otherwise zeros in the row); the magnetometer in tesla, the pressure in
+    Pa. `payload`: room for the payload (HIL_SENSOR[2] bytes). The inverse of `put_hil_sensor` but for float32's
+    rounding; the values are those pymavlink's decode gives, unit for unit (`hil_codec.read_hil_sensor`)."""
+    payload_of(frame, payload)
+    updated = get_u32(payload, 60)
+    row[ROW_T_US] = get_u64(payload, 0)
+    present = 0
+    for group, first, bits, scale in ((HAS_ACCEL, ROW_ACCEL, ACCEL_BITS, 1.0), (HAS_GYRO, ROW_GYRO, GYRO_BITS, 1.0),
+                                      (HAS_MAG, ROW_MAG_T, MAG_BITS, TESLA_PER_GAUSS)):
+        whole = updated & bits == bits
+        for k in range(3):
+            row[first + k] = get_f32(payload, 8 + 4 * (first - 1 + k)) * scale if whole else 0.0
+        present |= group if whole else 0
+    baro = updated & BARO_BITS == BARO_BITS
+    row[ROW_BARO] = get_f32(payload, 44) * PA_PER_HPA if baro else 0.0
+    row[ROW_BARO + 1] = get_f32(payload, 56) if baro else 0.0
+    row[ROW_BARO + 2] = get_f32(payload, 52) if baro else 0.0
+    row[ROW_PRESENT] = present | (HAS_BARO if baro else 0)
 
 
 @inline

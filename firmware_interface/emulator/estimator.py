@@ -32,7 +32,21 @@ from firmware_interface.emulator.geometry import (
     wrap_pi,
 )
 from firmware_interface.geodesy import STANDARD_GRAVITY_M_S2, LocalFrame
-from firmware_interface.hil_codec import GpsFix, SensorReadings
+from firmware_interface.hil_codec import GpsFix, SensorReadings, sensor_row
+from firmware_interface.hil_frames import (
+    HAS_ACCEL,
+    HAS_BARO,
+    HAS_GYRO,
+    HAS_MAG,
+    HIL_SENSOR,
+    ROW_ACCEL,
+    ROW_BARO,
+    ROW_MAG_T,
+    ROW_PRESENT,
+    ROW_SIZE,
+    ROW_T_US,
+    hil_sensor_row,
+)
 
 E3 = np.array((0.0, 0.0, 1.0))
 HISTORY_S = 1.0
@@ -93,7 +107,7 @@ HISTORY_START = 512  # samples the history ring holds at first (2 s at 250 Hz); 
 HISTORY_ROW = 12  # pos, vel, applied_pos, applied_vel at one sample
 
 
-@flight_code
+@shared_maths
 def sensor_step(x: np.ndarray, f: np.ndarray, w: np.ndarray, m: np.ndarray, field_ned: np.ndarray, use_mag: bool,
                 g: float, attitude_gain: float, heading_gain: float, share: float, baro_gain: float, baro_alt_m: float,
                 history_t_us: np.ndarray, history: np.ndarray, ring: np.ndarray, t_us: int, dt: float) -> None:
@@ -126,8 +140,8 @@ def sensor_step(x: np.ndarray, f: np.ndarray, w: np.ndarray, m: np.ndarray, fiel
         ring[0], ring[1] = (ring[0] + 1) % capacity, ring[1] - 1
 
 
-@flight_code
-def estimate_of(x: np.ndarray) -> np.ndarray:
+@shared_maths
+def estimate_values(x: np.ndarray) -> np.ndarray:
     """pos, vel, q, η, rates in a new array (what `Estimate` views)."""
     out = np.empty(16)
     out[0:3] = x[POS:POS + 3]
@@ -136,6 +150,49 @@ def estimate_of(x: np.ndarray) -> np.ndarray:
     out[10:13] = quat_to_euler(x[Q:Q + 4])
     out[13:16] = x[RATES:RATES + 3]
     return out
+
+
+@flight_code
+def estimate_of(x: np.ndarray) -> np.ndarray:
+    return estimate_values(x)
+
+
+# what a sensor sample did (`sensor_sample`): nothing (no IMU, or a time step out of range); the IMU taken before
+# alignment; the same with what alignment needs (magnetometer and field), which Python then does; the filter stepped
+SKIPPED, UNALIGNED, ALIGN, STEPPED = 0, 1, 2, 3
+G, ATTITUDE_GAIN, HEADING_GAIN, SPREAD_S, BARO_GAIN = 0, 1, 2, 3, 4  # `sensor_sample`'s `constants`
+
+
+@flight_code
+def sensor_sample(frame: bytes, payload: np.ndarray, row: np.ndarray, x: np.ndarray, imu: np.ndarray,
+                  field_ned: np.ndarray, field_known: bool, aligned: bool, constants: np.ndarray,
+                  history_t_us: np.ndarray, history: np.ndarray, ring: np.ndarray,
+                  last_t_us: int) -> tuple[int, np.ndarray]:
+    """One HIL_SENSOR sample, from its frame (`frame` empty: `row` holds it already), into the filter; returns
+    what it did and the estimate after it (`estimate_values`). `last_t_us` −1: the first sample. One call from
+    the bytes received to the state the controller flies on: a step's sample went through four Python calls and
+    two objects before."""
+    if len(frame):
+        hil_sensor_row(frame, payload, row)
+    t_us = int(row[ROW_T_US])
+    dt = (t_us - (t_us if last_t_us < 0 else last_t_us)) * 1e-6
+    present = int(row[ROW_PRESENT])
+    outcome = SKIPPED
+    if present & HAS_ACCEL and present & HAS_GYRO and 0.0 <= dt < 0.5:
+        imu[0:6] = row[ROW_ACCEL:ROW_ACCEL + 6]  # the accelerometer, then the gyro
+        has_mag = present & HAS_MAG != 0
+        if has_mag:
+            imu[6:9] = row[ROW_MAG_T:ROW_MAG_T + 3]
+        if not aligned:
+            outcome = ALIGN if has_mag and field_known else UNALIGNED
+        else:
+            spread_s = constants[SPREAD_S]
+            share = min(dt / spread_s, 1.0) if spread_s > 0 else 1.0
+            sensor_step(x, imu[0:3], imu[3:6], imu[6:9], field_ned, has_mag and field_known, constants[G],
+                        constants[ATTITUDE_GAIN], constants[HEADING_GAIN], share, constants[BARO_GAIN],
+                        row[ROW_BARO + 2] if present & HAS_BARO else math.nan, history_t_us, history, ring, t_us, dt)
+            outcome = STEPPED
+    return outcome, estimate_values(x)
 
 
 @dataclass(frozen=True)
@@ -173,6 +230,10 @@ class Estimator:
         self._history = np.zeros((HISTORY_START, HISTORY_ROW))
         self._ring = np.zeros(2, np.int64)
         self._imu = np.zeros(9)  # this sample's accelerometer, gyro and magnetometer, as the compiled step takes them
+        self._row = np.zeros(ROW_SIZE)  # the sample as a step row (`hil_frames.ROW_*`)
+        self._payload = np.zeros(HIL_SENSOR[2], np.uint8)  # a HIL_SENSOR frame's payload, trimmed zeros restored
+        self._constants = np.zeros(5)  # what `sensor_sample` takes of the settings (G, ATTITUDE_GAIN, ...)
+        self._constants_of: EstimatorSettings | None = None  # the settings they are of
 
     # --- readiness ----------------------------------------------------------------
     def ready(self) -> bool:
@@ -186,31 +247,28 @@ class Estimator:
         return Estimate(e[0:3], e[3:6], e[6:10], e[10:13], e[13:16])
 
     # --- sensors ------------------------------------------------------------------
-    def on_sensors(self, r: SensorReadings) -> None:
-        if self.t_us is None:
-            self.t_us = r.t_us
-        dt = (r.t_us - self.t_us) * 1e-6
-        self.t_us = r.t_us
-        if r.accel_frd is None or r.gyro_frd is None or not 0.0 <= dt < 0.5:
-            return
-        imu = self._imu
-        imu[0:3], imu[3:6] = r.accel_frd, r.gyro_frd
-        f, w, m = imu[0:3], imu[3:6], imu[6:9]
-        if r.mag_frd_t is not None:
-            m[:] = r.mag_frd_t
-        if not self.aligned:
-            if r.mag_frd_t is not None and self.field_ned is not None:
-                self._align(f, m)
-            return
-        s, field = self.settings, self.field_ned
-        use_mag = r.mag_frd_t is not None and field is not None
-        spread_s = s.correction_spread_s
-        share = min(dt / spread_s, 1.0) if spread_s > 0 else 1.0
+    def on_sensors(self, r: SensorReadings) -> np.ndarray:
+        """A sample given as readings (`on_sensor_frame` with the row already made)."""
+        self._row[:] = sensor_row(r)
+        return self.on_sensor_frame(b"")
+
+    def on_sensor_frame(self, frame: bytes) -> np.ndarray:
+        """A HIL_SENSOR frame's sample; returns the estimate after it (`estimate_values`'s array)."""
         if self._ring[1] == self._history_t_us.size:
             self._grow_history()
-        sensor_step(self.x, f, w, m, field if field is not None else E3, use_mag, self.g, s.attitude_gain,
-                    s.heading_gain, share, s.baro_gain, math.nan if r.baro is None else r.baro.pressure_alt_m,
-                    self._history_t_us, self._history, self._ring, r.t_us, dt)
+        if self._constants_of is not self.settings:
+            s = self._constants_of = self.settings
+            self._constants[:] = (self.g, s.attitude_gain, s.heading_gain, s.correction_spread_s, s.baro_gain)
+        field = self.field_ned
+        outcome, estimate = sensor_sample(frame, self._payload, self._row, self.x, self._imu,
+                                          E3 if field is None else field, field is not None, self.aligned,
+                                          self._constants, self._history_t_us, self._history, self._ring,
+                                          -1 if self.t_us is None else self.t_us)
+        self.t_us = int(self._row[ROW_T_US])
+        if outcome == ALIGN:
+            self._align(self._imu[0:3], self._imu[6:9])
+            return estimate_of(self.x)
+        return estimate
 
     def on_gps(self, fix: GpsFix, now_us: int) -> None:
         if fix.fix_type < 3:

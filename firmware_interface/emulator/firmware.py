@@ -48,7 +48,7 @@ from firmware_interface.emulator.commander import Command, Commander
 from firmware_interface.emulator.config import EmulatorConfig
 from firmware_interface.emulator.control import ControlOutput, VehicleState
 from firmware_interface.emulator.control.registry import make_controller
-from firmware_interface.emulator.estimator import Estimator
+from firmware_interface.emulator.estimator import Estimator, estimate_of
 from firmware_interface.emulator.failsafe import Failsafes
 from firmware_interface.emulator.flight import Flight
 from firmware_interface.emulator.geometry import quat_to_euler
@@ -170,16 +170,17 @@ class EmulatedBoard(Flight):
 
     # --- the control step ---------------------------------------------------------------------------------
     def _on_sensor(self, msg: Message) -> None:
-        readings = codec.read_hil_sensor(msg)
+        estimator = self.estimator
+        estimate = estimator.on_sensor_frame(bytes(msg.get_msgbuf()))
         self.last_sensor_wall = self.clock()
-        t_us = readings.t_us
+        t_us = estimator.t_us
+        assert t_us is not None
         dt = 0.0 if self.last_sensor_t_us is None else (t_us - self.last_sensor_t_us) * 1e-6
         self.last_sensor_t_us = t_us
         if self.boot_us is None:
             self.boot_us = t_us
-        self.estimator.on_sensors(readings)
         motors = self.motors_stopped
-        state = self._state()
+        state = self._state_of(estimate)
         if self.landed_at_us is not None:
             self._disarm_after_landing(t_us)
         if t_us >= self.navigator.next_tick_us:
@@ -212,12 +213,15 @@ class EmulatedBoard(Flight):
         self.health.on_fix(fix, self.last_sensor_t_us)
 
     def _state(self) -> VehicleState | None:
+        return self._state_of(estimate_of(self.estimator.x))
+
+    def _state_of(self, estimate: np.ndarray) -> VehicleState | None:
+        """The state flown on, given the estimator's latest estimate (`estimate_values`'s array)."""
         if self.config.state_source == "truth":
             return self.truth
         if not self.estimator.aligned:
             return None
-        e = self.estimator.estimate()
-        return VehicleState(e.pos_ned, e.vel_ned, e.eta, e.rates_frd)
+        return VehicleState(estimate[0:3], estimate[3:6], estimate[10:13], estimate[13:16])
 
     @staticmethod
     def _truth_from_odometry(t: codec.LocalTruth) -> VehicleState:

@@ -15,6 +15,7 @@ from firmware_interface.compiled_code import CompiledCode
 
 STX_V2 = 0xFD
 PAYLOAD = 10  # header bytes before the payload
+PAYLOAD_V1 = 6  # the same in a MAVLink 1 frame
 OVERHEAD = 12  # header and checksum
 inline = CompiledCode.inline
 
@@ -53,6 +54,33 @@ def put_u64(buf: np.ndarray, at: int, value: int) -> None:
 def put_f32(buf: np.ndarray, at: int, value: float) -> None:
     """`value` rounded to float32 (to nearest, as struct's 'f' does), little-endian."""
     buf[at:at + 4].view(np.float32)[0] = value
+
+
+@inline
+def get_u32(buf: np.ndarray, at: int) -> int:
+    """The little-endian uint32 at `at` (a reader of what `put_u32` writes)."""
+    return int(buf[at:at + 4].view(np.uint32)[0])
+
+
+@inline
+def get_u64(buf: np.ndarray, at: int) -> int:
+    return int(buf[at:at + 8].view(np.uint64)[0])
+
+
+@inline
+def get_f32(buf: np.ndarray, at: int) -> float:
+    """The float32 at `at`, as a float64 (exactly: every float32 is one)."""
+    return float(buf[at:at + 4].view(np.float32)[0])
+
+
+@inline
+def payload_of(frame: bytes, payload: np.ndarray) -> None:
+    """A received frame's payload (MAVLink 2 or 1) into `payload`, its trimmed trailing zeros restored: every
+    field then reads at its wire offset, whatever the sender trimmed."""
+    header = PAYLOAD if frame[0] == STX_V2 else PAYLOAD_V1
+    size = frame[1]
+    for k in range(payload.size):
+        payload[k] = frame[header + k] if k < size else 0
 
 
 @inline

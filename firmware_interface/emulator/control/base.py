@@ -7,6 +7,7 @@ laws with z up; here gravity is +g·e3 (down) and the thrust force is −u1·R·
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -42,7 +43,7 @@ class ControlOutput:
     thrust_n: float  # u1, total
     torque_frd: np.ndarray  # body torques, N·m
     eta_cmd: np.ndarray  # commanded roll, pitch, yaw
-    internals: dict[str, float] = field(default_factory=dict)  # estimates and sliding variables to publish
+    internals: Mapping[str, float] = field(default_factory=dict)  # estimates and sliding variables to publish
 
 
 class Controller(Protocol):
@@ -136,10 +137,33 @@ def step_output(thrust_n: float, torque_frd: np.ndarray, eta_cmd: np.ndarray, in
     return out
 
 
+class InternalValues(Mapping[str, float]):
+    """A compiled step's internals by name, read from its output array when asked: they are published at 50 Hz,
+    and a dict of them built every step cost more than some laws."""
+
+    __slots__ = ("_keys", "_values")
+
+    def __init__(self, keys: tuple[str, ...], values: np.ndarray) -> None:
+        if len(values) != len(keys):
+            raise ValueError(f"{len(values)} internals for the {len(keys)} names {keys}")
+        self._keys, self._values = keys, values
+
+    def __getitem__(self, key: str) -> float:
+        try:
+            return float(self._values[self._keys.index(key)])
+        except ValueError:
+            raise KeyError(key) from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._keys)
+
+    def __len__(self) -> int:
+        return len(self._keys)
+
+
 def control_output(out: np.ndarray, internal_keys: tuple[str, ...]) -> ControlOutput:
     """A compiled step's output array as the contract's `ControlOutput` (its arrays are views of it)."""
-    return ControlOutput(float(out[0]), out[1:4], out[4:7],
-                         dict(zip(internal_keys, out[INTERNALS:].tolist(), strict=True)))
+    return ControlOutput(float(out[0]), out[1:4], out[4:7], InternalValues(internal_keys, out[INTERNALS:]))
 
 
 class GainValues:
