@@ -12,17 +12,11 @@ from typing import Any
 import numpy as np
 
 from firmware_interface.hil_frames import (
-    ACCEL_BITS,
-    BARO_BITS,
-    DIFF_PRESSURE_BITS,
-    GYRO_BITS,
     HAS_ACCEL,
     HAS_BARO,
     HAS_GPS,
     HAS_GYRO,
     HAS_MAG,
-    MAG_BITS,
-    PA_PER_HPA,
     ROW_ACCEL,
     ROW_ALT_MSL_M,
     ROW_BARO,
@@ -39,7 +33,6 @@ from firmware_interface.hil_frames import (
     ROW_SATELLITES,
     ROW_SIZE,
     ROW_T_US,
-    TESLA_PER_GAUSS,
 )
 
 MODE_FLAG_CUSTOM, MODE_FLAG_HIL, MODE_FLAG_ARMED = 1, 32, 128
@@ -162,24 +155,6 @@ def readings_of_row(row: np.ndarray) -> tuple[SensorReadings, GpsFix | None]:
                  group(HAS_GPS, ROW_GPS_VEL_NED) or (0.0, 0.0, 0.0), values[ROW_EPH_M], values[ROW_EPV_M],
                  int(values[ROW_FIX_TYPE]), int(values[ROW_SATELLITES]))
     return readings, gps
-
-
-def read_hil_sensor(msg: Any) -> SensorReadings:
-    """HIL_SENSOR's readings: groups whose bits are incomplete are absent, as in PX4."""
-    updated = msg.fields_updated
-
-    def has(bits: int) -> bool:
-        return updated & bits == bits
-
-    return SensorReadings(
-        t_us=msg.time_usec,
-        accel_frd=(msg.xacc, msg.yacc, msg.zacc) if has(ACCEL_BITS) else None,
-        gyro_frd=(msg.xgyro, msg.ygyro, msg.zgyro) if has(GYRO_BITS) else None,
-        mag_frd_t=tuple(v * TESLA_PER_GAUSS for v in (msg.xmag, msg.ymag, msg.zmag)) if has(MAG_BITS) else None,
-        baro=Baro(msg.abs_pressure * PA_PER_HPA, msg.temperature, msg.pressure_alt) if has(BARO_BITS) else None,
-        diff_pressure_pa=msg.diff_pressure * PA_PER_HPA if has(DIFF_PRESSURE_BITS) else None,
-        sensor_id=msg.id,
-    )
 
 
 def read_hil_gps(msg: Any) -> GpsFix:

@@ -99,7 +99,7 @@ def hil_sensor_row(frame: bytes, payload: np.ndarray, row: np.ndarray) -> None:
     """A HIL_SENSOR frame into the step row it was packed from, as PX4 reads it: a group is present only when
     every bit of it is in fields_updated (otherwise zeros in the row); the magnetometer in tesla, the pressure in
     Pa. `payload`: room for the payload (HIL_SENSOR[2] bytes). The inverse of `put_hil_sensor` but for float32's
-    rounding; the values are those pymavlink's decode gives, unit for unit (`hil_codec.read_hil_sensor`)."""
+    rounding; the values are those of pymavlink's decode, unit for unit (tests/test_emulator_sensor_frame.py)."""
     payload_of(frame, payload)
     updated = get_u32(payload, 60)
     row[ROW_T_US] = get_u64(payload, 0)
