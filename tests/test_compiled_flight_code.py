@@ -55,7 +55,7 @@ def fly_and_count(cache_home: Path) -> dict:
 def test_the_first_process_compiles_the_flight_code_and_the_next_one_loads_it(tmp_path):
     first = fly_and_count(tmp_path)
     flown = {name.rsplit(".", 2)[-2] + "." + name.rsplit(".", 1)[-1] for name in first["misses"]}
-    assert {"estimator.sensor_step", "estimator.estimate_of", "mixer.rotor_commands", "smarc.smarc_step",
+    assert {"estimator.sensor_sample", "estimator.estimate_of", "mixer.rotor_commands", "smarc.smarc_step",
             "smpid.smpid_step", "backstepping.backstepping_step"} <= flown
     assert Path(first["cache_dir"]).is_relative_to(tmp_path) and any(Path(first["cache_dir"]).iterdir())
     assert all(first["misses"].values()) and not any(first["hits"].values())  # each compiled here
