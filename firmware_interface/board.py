@@ -32,7 +32,7 @@ from firmware_interface.board_requests import (
     float_as_int32,
     int32_as_float,
 )
-from firmware_interface.board_watchdog import LinkWatchdog
+from firmware_interface.board_watchdog import RUNNABLE_RECHECK_S, LinkWatchdog
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
 
@@ -174,8 +174,8 @@ class BoardSession:
         self.wait_for_replies = False
         self.watchdog.watchdog_s += faults.longest_outage_s()
 
-    def check_watchdog(self) -> None:
-        self.watchdog.check(self.clock() - self._last_rx, self.link.name)
+    def check_watchdog(self) -> bool:  # `LinkWatchdog.check` of the silence so far
+        return self.watchdog.check(self.clock() - self._last_rx, self.link.name)
 
     def poll(self, timeout_s: float = 0.0) -> list[Message]:
         """Read and handle whatever arrives within `timeout_s`."""
@@ -334,25 +334,25 @@ class BoardSession:
     def await_reply(self) -> codec.ActuatorOutputs | None:
         """The actuator outputs for the step just sent.
 
-        PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's time_usec in
-        HIL_ACTUATOR_CONTROLS, so stale replies to earlier steps are skipped. Before lockstep
-        starts (free-run) each step waits at most `free_run_wait_s` for a first reply, so no
-        backlog of replies builds up. A real board (HITL) is never waited for: it runs on its
-        own clock. Raises BoardError when the watchdog expires.
+        PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's time_usec in HIL_ACTUATOR_CONTROLS, so stale
+        replies to earlier steps are skipped. Before lockstep starts (free-run) each step waits at most
+        `free_run_wait_s` for a first reply, so no backlog of replies builds up. A real board (HITL) is never waited
+        for: it runs on its own clock. Raises BoardError when the watchdog expires (`LinkWatchdog.check`).
         """
         if not self.waits_for_replies:
             self._awaited_t_us = None
             self.poll(0.0)
             self.check_watchdog()
             return self.actuators
-        limit_s = self.watchdog.limit_s
-        deadline = self.clock() + (limit_s if self.lockstep else self.free_run_wait_s)
+        deadline = self.clock() + (self.watchdog.limit_s if self.lockstep else self.free_run_wait_s)
         while self._awaited_t_us is not None:
             remaining = deadline - self.clock()
             if remaining <= 0:
-                self.check_watchdog()
+                if self.check_watchdog():  # its process waits for a CPU: look again shortly
+                    deadline = self.clock() + RUNNABLE_RECHECK_S
+                    continue
                 if self.lockstep:
-                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {limit_s:.2f} s in lockstep")
+                    raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog.limit_s:.2f} s in lockstep")
                 break
             self.poll(remaining)
         self._awaited_t_us = None

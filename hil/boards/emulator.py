@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -14,6 +15,7 @@ from firmware_interface.link import Link, open_pty_pair
 from hil.boards.gcs_relay import DEFAULT_GCS
 from hil.boards.handle import BoardHandle
 from hil.boards.target import BoardPolicy, GroundTruthUse, LinkSettings
+from hil.host.process_cpu import scheduler_state
 from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
@@ -97,6 +99,8 @@ class EmulatorTarget:
                                motor_count=settings.motor_count)
         handle = BoardHandle(session, session, f"emulator on {pair.slave_path}",
                              EmulatorProcess(popen, run_dir / "emulator.log"))
+        # one thread serves the link: its state is the board's (runnable and silent: waiting for a CPU)
+        session.watchdog.process_state = functools.partial(scheduler_state, popen.pid)
 
         def still_starting() -> None:
             note = handle.exit_note()

@@ -1,5 +1,6 @@
-"""CPU time a process has used, all its threads, from Linux's /proc: the board's own share of a lockstep
-step (PX4's or the emulator's), beside the bench's breakdown of its own share."""
+"""What Linux's /proc says of a board process the bench runs: the CPU time it has used, all its threads (the board's
+own share of a lockstep step, PX4's or the emulator's, beside the bench's breakdown of its own share), and its
+scheduler state (whether a silent board is waiting for a CPU: `firmware_interface.board_watchdog`)."""
 
 from __future__ import annotations
 
@@ -7,15 +8,28 @@ import os
 from pathlib import Path
 
 _TICK_S = 1.0 / os.sysconf("SC_CLK_TCK")
-_UTIME, _STIME = 11, 12  # fields 14 and 15 of /proc/PID/stat, counted after the ")" that ends the name
+_STATE, _UTIME, _STIME = 0, 11, 12  # fields 3, 14 and 15 of /proc/PID/stat, counted after the ")" ending the name
+
+
+def _stat_fields(pid: int) -> list[str] | None:
+    """/proc/PID/stat's fields after the process's name (which may hold spaces); None where there is no such
+    process or no /proc."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    return text[text.rindex(")") + 2 :].split()
 
 
 def cpu_seconds(pid: int) -> float | None:
     """User + system CPU seconds of `pid` (a 10 ms tick on most kernels); None where /proc has no such
     process or there is no /proc."""
-    try:
-        text = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    fields = text[text.rindex(")") + 2 :].split()
-    return (int(fields[_UTIME]) + int(fields[_STIME])) * _TICK_S
+    fields = _stat_fields(pid)
+    return None if fields is None else (int(fields[_UTIME]) + int(fields[_STIME])) * _TICK_S
+
+
+def scheduler_state(pid: int) -> str | None:
+    """`pid`'s main thread's state as the scheduler has it: R (running or waiting for a CPU), S (asleep), D, T
+    (stopped), Z, ...; None where there is no such process or no /proc."""
+    fields = _stat_fields(pid)
+    return None if fields is None else fields[_STATE]

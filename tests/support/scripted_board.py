@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,6 +20,7 @@ class ScriptedBoard:
     accept_arm: bool = True
     send_heartbeat: bool = True
     answer_sensors: bool = True
+    stall_s: float = 0.0  # silent this long before answering the next HIL_SENSOR (once): a board off its CPU
     received: list[str] = field(default_factory=list)
     messages: dict[str, Any] = field(default_factory=dict)  # the last message of each kind, decoded
     armed: bool = False
@@ -52,6 +54,8 @@ class ScriptedBoard:
                     self.received.append(kind)
                     self.messages[kind] = msg
                     if kind == "HIL_SENSOR" and self.answer_sensors:
+                        time.sleep(self.stall_s)
+                        self.stall_s = 0.0
                         sensors += 1
                         if sensors > self.free_run:
                             fields = codec.hil_actuator_controls_fields(msg.time_usec, (0.5,) * 4, self.armed, True)
