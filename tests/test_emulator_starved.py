@@ -27,7 +27,7 @@ from hil.scenario.schema import Scenario
 from tests.support.recording_digest import simulated_digest
 
 WATCHDOG_S = 0.5  # under the ~0.95 s the kernel's real-time throttling leaves a starved process silent
-STARVE_AFTER_S, STARVE_FOR_S = 1.0, 1.2  # from the emulator's first heartbeat: its flight is under way by then
+STARVE_AFTER_S, STARVE_FOR_S = 0.8, 1.0  # from the emulator's first heartbeat: its flight is under way by then
 SPIN = "import os, sys\nos.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))\nsys.stdout.write('x')\n" \
        "sys.stdout.flush()\nwhile True: pass"
 
@@ -82,11 +82,11 @@ class EmulatorStarvedMidFlight:
 
 
 @pytest.mark.e2e
-@pytest.mark.wallclock  # it takes one CPU from everything else for 1.2 s: alone, after the parallel part
+@pytest.mark.wallclock  # it takes one CPU from everything else for 1 s: alone, after the parallel part
 @pytest.mark.skipif(not fifo_allowed(), reason="starving a process needs SCHED_FIFO: root or CAP_SYS_NICE")
 def test_an_emulator_starved_of_its_cpu_mid_flight_is_waited_for_and_records_the_same_flight(tmp_path):
     scenario_path = tmp_path / "hold.yaml"
-    scenario_path.write_text("name: hold\nduration_s: 40\nseed: 5\nend: disarm\n"
+    scenario_path.write_text("name: hold\nduration_s: 30\nseed: 5\nend: disarm\n"
                              "reference: {type: hover, altitude_m: 2}\n")
     scenario = load_scenario(scenario_path)
     starved = EmulatorStarvedMidFlight()
