@@ -9,42 +9,31 @@ import os
 import signal
 import threading
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import pytest
 
-from hil.boards.emulator import EmulatorProcess, EmulatorTarget
-from hil.boards.handle import BoardHandle
-from hil.boards.target import BoardPolicy, LinkSettings
+from hil.boards.emulator import EmulatorTarget
 from hil.run.runner import RunOptions, run_scenario
 from hil.scenario.loader import load_scenario
-from hil.scenario.schema import Scenario
+from tests.support.emulator_process import EmulatorWithItsProcess
 from tests.support.recording_digest import simulated_digest
 
 STALL_S = 0.3  # thirty steps' worth of the 10 ms a booting PX4 SITL's first replies are given
 
 
 @dataclass(frozen=True)
-class EmulatorStoppedAtItsStart:
-    """The emulator, stopped (SIGSTOP: no CPU at all) from its first heartbeat for `stall_s`, so that the bench's
+class StopAtItsStart:
+    """The emulator stopped (SIGSTOP: no CPU at all) from its first heartbeat for `stall_s`, so that the bench's
     first HIL_SENSOR waits in the pty."""
 
     stall_s: float
     resumes: list[threading.Timer] = field(default_factory=list)
-    label = "emulator"
 
-    def policy(self, scenario: Scenario) -> BoardPolicy:
-        return EmulatorTarget().policy(scenario)
-
-    def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
-        handle = EmulatorTarget().attach(scenario, run_dir, settings)
-        assert isinstance(handle.process, EmulatorProcess)
-        pid = handle.process.popen.pid
+    def __call__(self, pid: int) -> None:
         os.kill(pid, signal.SIGSTOP)
         resume = threading.Timer(self.stall_s, os.kill, (pid, signal.SIGCONT))
         self.resumes.append(resume)
         resume.start()
-        return handle
 
 
 @pytest.mark.e2e
@@ -53,9 +42,9 @@ def test_an_emulator_slow_to_answer_its_first_frame_records_the_same_flight(tmp_
     scenario_path.write_text("name: hold\nduration_s: 1\nseed: 5\nend: disarm\n"
                              "reference: {type: hover, altitude_m: 2}\n")
     scenario = load_scenario(scenario_path)
-    stalled = EmulatorStoppedAtItsStart(STALL_S)
+    stalled = StopAtItsStart(STALL_S)
     outcomes = {}
-    for label, board in (("at once", EmulatorTarget()), ("stopped at its start", stalled)):
+    for label, board in (("at once", EmulatorTarget()), ("stopped at its start", EmulatorWithItsProcess(stalled))):
         outcomes[label] = run_scenario(scenario, RunOptions(board=board, runs_root=tmp_path / label, telemetry=None,
                                                             gcs=[]))
         assert outcomes[label].exit_code == 0, outcomes[label].reason

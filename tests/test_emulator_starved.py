@@ -13,17 +13,14 @@ import time
 from collections import Counter
 from contextlib import suppress
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import pytest
 
-from hil.boards.emulator import EmulatorProcess, EmulatorTarget
-from hil.boards.handle import BoardHandle
-from hil.boards.target import BoardPolicy, LinkSettings
+from hil.boards.emulator import EmulatorTarget
 from hil.host.process_cpu import scheduler_state
 from hil.run.runner import RunOptions, run_scenario
 from hil.scenario.loader import load_scenario
-from hil.scenario.schema import Scenario
+from tests.support.emulator_process import EmulatorWithItsProcess, may_raise_priority
 from tests.support.recording_digest import simulated_digest
 
 WATCHDOG_S = 0.5  # under the ~0.95 s the kernel's real-time throttling leaves a starved process silent
@@ -32,34 +29,18 @@ SPIN = "import os, sys\nos.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5
        "sys.stdout.flush()\nwhile True: pass"
 
 
-def fifo_allowed() -> bool:
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
-    except PermissionError:
-        return False
-    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    return True
-
-
 @dataclass
-class EmulatorStarvedMidFlight:
-    """The emulator, pinned for `STARVE_FOR_S` to one CPU on which a SCHED_FIFO process spins; the emulator's
-    scheduler states are sampled meanwhile."""
+class StarveMidFlight:
+    """The emulator pinned for `STARVE_FOR_S` to one CPU on which a SCHED_FIFO process spins, `STARVE_AFTER_S` after
+    its first heartbeat; its scheduler states sampled meanwhile."""
 
     states: Counter[str | None] = field(default_factory=Counter)
     threads: list[threading.Thread] = field(default_factory=list)
-    label = "emulator"
 
-    def policy(self, scenario: Scenario) -> BoardPolicy:
-        return EmulatorTarget().policy(scenario)
-
-    def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
-        handle = EmulatorTarget().attach(scenario, run_dir, settings)
-        assert isinstance(handle.process, EmulatorProcess)
-        thread = threading.Thread(target=self._starve, args=(handle.process.popen.pid,), daemon=True)
+    def __call__(self, pid: int) -> None:
+        thread = threading.Thread(target=self._starve, args=(pid,), daemon=True)
         self.threads.append(thread)
         thread.start()
-        return handle
 
     def _starve(self, pid: int) -> None:
         time.sleep(STARVE_AFTER_S)
@@ -83,15 +64,15 @@ class EmulatorStarvedMidFlight:
 
 @pytest.mark.e2e
 @pytest.mark.wallclock  # it takes one CPU from everything else for 1 s: alone, after the parallel part
-@pytest.mark.skipif(not fifo_allowed(), reason="starving a process needs SCHED_FIFO: root or CAP_SYS_NICE")
+@pytest.mark.skipif(not may_raise_priority(), reason="starving a process needs SCHED_FIFO: root or CAP_SYS_NICE")
 def test_an_emulator_starved_of_its_cpu_mid_flight_is_waited_for_and_records_the_same_flight(tmp_path):
     scenario_path = tmp_path / "hold.yaml"
     scenario_path.write_text("name: hold\nduration_s: 30\nseed: 5\nend: disarm\n"
                              "reference: {type: hover, altitude_m: 2}\n")
     scenario = load_scenario(scenario_path)
-    starved = EmulatorStarvedMidFlight()
+    starved = StarveMidFlight()
     outcomes = {}
-    for label, board in (("unstarved", EmulatorTarget()), ("starved", starved)):
+    for label, board in (("unstarved", EmulatorTarget()), ("starved", EmulatorWithItsProcess(starved))):
         outcomes[label] = run_scenario(scenario, RunOptions(board=board, runs_root=tmp_path / label, telemetry=None,
                                                             gcs=[], watchdog_s=WATCHDOG_S))
         assert outcomes[label].exit_code == 0, outcomes[label].reason

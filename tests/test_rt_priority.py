@@ -8,18 +8,10 @@ from pathlib import Path
 import pytest
 
 from hil.host.rt_priority import FIFO_PRIORITY, board_on_its_own_core, frozen_heap, realtime_priority, run_just_below
+from tests.support.emulator_process import may_raise_priority
 
 
-def _may_raise_priority() -> bool:
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(1))
-    except OSError:
-        return False
-    os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-    return True
-
-
-@pytest.mark.skipif(not _may_raise_priority(), reason="needs root or CAP_SYS_NICE")
+@pytest.mark.skipif(not may_raise_priority(), reason="needs root or CAP_SYS_NICE")
 def test_the_bench_and_the_emulator_run_fifo_during_the_flight_and_normal_after():
     child = subprocess.Popen(["sleep", "30"])
     try:
@@ -76,7 +68,7 @@ def test_a_px4_instance_runs_on_one_cpu_side_by_side_ones_on_others_and_the_benc
             child.wait()
 
 
-@pytest.mark.skipif(not _may_raise_priority(), reason="needs root or CAP_SYS_NICE")
+@pytest.mark.skipif(not may_raise_priority(), reason="needs root or CAP_SYS_NICE")
 def test_a_helper_thread_runs_one_fifo_priority_below_the_loop():
     import threading
 
