@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from firmware_interface.forkserver import FORKSERVER_ENV
 from hil.app.cli import main
 from hil.sweep.options import max_jobs
 from tests.support.ports import free_port
@@ -37,9 +38,13 @@ def expected(path: Path) -> str:
 
 
 def children() -> list[str]:
-    """This process's children (a LocalCluster's workers, an emulator), by command line."""
-    out = subprocess.run(["ps", "-o", "args=", "--ppid", str(os.getpid())], capture_output=True, text=True).stdout
-    return [line for line in out.splitlines() if not line.startswith("ps ") and "<defunct>" not in line]
+    """This process's children (a LocalCluster's workers, an emulator), by command line; not the session's
+    emulator fork server (tests/conftest.py), started before the test."""
+    out = subprocess.run(["ps", "-ww", "-o", "args=", "--ppid", str(os.getpid())], capture_output=True,
+                         text=True).stdout
+    forkserver = os.environ[FORKSERVER_ENV]
+    return [line for line in out.splitlines()
+            if not line.startswith("ps ") and "<defunct>" not in line and not line.endswith(forkserver)]
 
 
 def sweep_in_process(*args: str) -> tuple[int, list[str], float]:

@@ -46,6 +46,7 @@ def _emulators_on(folder: Path) -> list[str]:
     return [line for line in out.splitlines() if "firmware_interface.emulator" in line and str(folder) in line]
 
 
+@pytest.mark.usefixtures("fresh_emulators")
 @pytest.mark.e2e
 @pytest.mark.slow
 def test_a_run_that_fills_its_disk_stops_cleanly_and_stays_recoverable(small_disk, tmp_path):

@@ -127,6 +127,7 @@ def test_recording_opens_with_the_mcap_reader_and_has_every_channel_at_full_rate
     assert counts["hil/reference"] > 0 and counts["hil/board/heartbeat"] > 0 and counts["hil/events"] >= 5
 
 
+@pytest.mark.usefixtures("fresh_emulators")
 def test_killing_the_emulator_mid_run_exits_3_quickly_with_the_recording_intact(tmp_path):
     scenario = short_hover(tmp_path, seconds=120.0)
     runs = tmp_path / "runs"

@@ -34,7 +34,7 @@ ALLOWED: dict[str, set[str]] = {
     "hil.outputs": {"hil.loop", "hil.channels", "hil.scenario", "hil.host", "hil.exit_codes", FI, EMULATOR},
     "hil.reports": {"hil.outputs", "hil.channels", "hil.judge", "hil.scenario", "hil.exit_codes", FI, EMULATOR},
     "hil.run": _BELOW_LOOP | {"hil.loop", "hil.judge", "hil.pilots", "hil.outputs", "hil.channels"},
-    "hil.sweep": {"hil.run", "hil.scenario", "hil.host", "hil.exit_codes"},
+    "hil.sweep": {"hil.run", "hil.scenario", "hil.boards", "hil.host", "hil.exit_codes"},  # a worker's fork server
     "hil.app": {"hil", *_BENCH},
     "hil.testing": _BENCH,  # the pytest plugin: a front end beside the command line, never importing it
     "hil.__main__": {"hil.app"},

@@ -53,6 +53,8 @@ def test_each_scenario_is_a_testcase_with_the_runs_verdict(tmp_path):
     metrics = json.loads((Path(holds["run_dir"]) / "metrics.json").read_text())
     assert Path(holds["run_dir"]).is_relative_to(tmp_path / "out" / "scenarios" / "holds.yaml" / "holds-emulator")
     assert (holds["exit_code"], metrics["exit_code"]) == ("0", 0)
+    # the session's emulators come from its own warm fork server
+    assert "(forked by the warm server)" in (Path(holds["run_dir"]) / "summary.txt").read_text()
     assert float(holds["position_error_m.z.max_abs"]) == pytest.approx(metrics["position_error_m"]["z"]["max_abs"],
                                                                        rel=1e-5)
     assert float(holds["timing.realtime_factor"]) > 0 and "report" not in holds  # --hil-report failed
@@ -115,6 +117,7 @@ def test_xdist_flies_items_side_by_side_each_on_its_own_pty_and_zenoh_key(tmp_pa
         assert state[run_id] == sorted(set(state[run_id])), run_id  # one run's samples, none from another
 
 
+@pytest.mark.usefixtures("fresh_emulators")  # found by its command line after the session
 def test_a_sigterm_mid_flight_lands_the_run_and_ends_the_session(tmp_path):
     """A CI job cancelled (SIGTERM to pytest): the run in flight ends as `hil run` ends on it, its files closed (the
     recording reads to its end), the emulator stopped, and pytest stops as interrupted."""

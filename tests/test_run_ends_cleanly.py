@@ -126,19 +126,21 @@ def _alive(pid: int) -> bool:
 
 def _signal_run(tmp_path: Path, signals: list[tuple[float, int]],
                 in_flight: bool = False) -> tuple[int, Path, list[int], bool]:
-    """Start a run, send each (delay, signal), wait; exit code, run dir, the emulator's pid, and whether the run
-    had stepped by the time its signals went. Delays count from the emulator's start, or with `in_flight` from
-    the run's first second of stepping: a machine running three test files at a time took over 2 s to start
-    stepping. (--keep-failed: a run stopped before the board spoke keeps its directory too.)"""
+    """Start a run, send each (delay, signal), wait; exit code, run dir, the emulator's pid (a fresh process, the
+    bench's child: `fresh_emulators`), and whether the run had stepped by the time its signals went. Delays count
+    from the emulator's start, or with `in_flight` from the run's first second of stepping (the emulator's pid
+    not looked for): a machine running three test files at a time took over 2 s to start stepping.
+    (--keep-failed: a run stopped before the board spoke keeps its directory too.)"""
     runs = tmp_path / "runs"
     # a mission far longer than any signal's delay, however fast the machine flies it: the signal ends it
     bench = hil_run(str(hover_file(tmp_path, 600.0)), "--runs", str(runs), "--no-telemetry", "--keep-failed")
-    deadline = time.monotonic() + 60
-    while not emulator_pids(bench.pid) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    children = emulator_pids(bench.pid)
+    children: list[int] = []
     if in_flight:
         wait_flying(runs, then_s=0.0)
+    else:
+        deadline = time.monotonic() + 60
+        while not (children := emulator_pids(bench.pid)) and time.monotonic() < deadline:
+            time.sleep(0.05)
     started = time.monotonic()
     stepped = False
     for delay, signum in signals:
@@ -154,6 +156,7 @@ def _signal_run(tmp_path: Path, signals: list[tuple[float, int]],
 # after the emulator's start: its imports and compiled code (~0-1 s), the wait for its heartbeat, then stepping
 # (by 1.5 s on a quiet machine): preflight, take-off and the mission follow each other within a second or two
 @pytest.mark.parametrize("delay_s", [0.2, 0.5, 0.8, 1.1, 1.4, 1.7, 2.0, 2.5, 3.0, 4.0])
+@pytest.mark.usefixtures("fresh_emulators")
 def test_sigterm_at_any_moment_closes_the_run(tmp_path, own_tmp, delay_s):
     code, run_dir, children, stepped = _signal_run(tmp_path, [(delay_s, signal.SIGTERM)])
     assert code == 130

@@ -73,6 +73,7 @@ def test_a_polled_read_returns_nothing_while_nothing_came_then_the_bytes_then_th
         reader.close()
 
 
+@pytest.mark.usefixtures("fresh_emulators")
 @pytest.mark.e2e
 def test_a_lockstep_flight_with_both_ends_polling_records_what_it_records_asleep(tmp_path):
     """`hil run --spin-wait` on the emulator: the bench polls for the replies and the emulator it starts (its

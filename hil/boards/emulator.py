@@ -3,17 +3,21 @@
 from __future__ import annotations
 
 import functools
+import os
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import BinaryIO
 
 import yaml
 
 from firmware_interface.board import SIMULATED, BoardError, BoardSession
+from firmware_interface.forkserver import FORKSERVER_ENV
 from firmware_interface.link import Link, open_pty_pair
+from hil.boards.forked_emulator import ForkedEmulator, fork_emulator
 from hil.boards.gcs_relay import DEFAULT_GCS
-from hil.boards.handle import BoardHandle
+from hil.boards.handle import BoardHandle, ChildProcess
 from hil.boards.target import BoardPolicy, GroundTruthUse, LinkSettings
 from hil.host.process_cpu import scheduler_state
 from hil.scenario.plant import RotorGeometry
@@ -27,7 +31,7 @@ EMULATOR_START_S = 60.0
 
 @dataclass
 class EmulatorProcess:
-    popen: subprocess.Popen[bytes]
+    popen: ChildProcess
     log_path: Path
     paced_with_bench = True  # our own process: a paced run raises it to real-time priority with the bench
 
@@ -43,6 +47,21 @@ class EmulatorProcess:
             except subprocess.TimeoutExpired:
                 self.popen.kill()
                 self.popen.wait()
+
+
+def start_emulator(args: list[str], log: BinaryIO) -> ChildProcess:
+    """The emulator with `args`, writing to `log`, in a session of its own (a terminal's Ctrl-C stops the bench,
+    which stops it): forked by the warm fork server `FORKSERVER_ENV` names, when one answers there; otherwise a
+    fresh process."""
+    server = os.environ.get(FORKSERVER_ENV)
+    if server:
+        try:
+            return fork_emulator(server, args, log.fileno())
+        except OSError as exc:
+            log.write(f"the emulator fork server at {server} did not answer ({exc}); started afresh\n".encode())
+            log.flush()
+    return subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", *args], stdout=log, stderr=log,
+                            start_new_session=True)
 
 
 def emulator_config(scenario: Scenario, rotors: RotorGeometry | None = None) -> dict:
@@ -82,14 +101,12 @@ class EmulatorTarget:
         config_path = run_dir / "emulator.yaml"
         config_path.write_text(yaml.safe_dump(emulator_config(scenario, settings.rotors), sort_keys=False))
         pair = open_pty_pair()
-        log = open(run_dir / "emulator.log", "wb")  # noqa: SIM115 - owned by the child process
         # one boot heartbeat: the bench holds the pty from before the emulator starts and waits for it; more, on the
         # wall clock, could land after the pre-step drain in a recorded step
         spin = ["--spin-wait"] if settings.spin_wait else []
-        # in a session of its own: a terminal Ctrl-C stops the bench, which stops it
-        popen = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port", pair.slave_path,
-                                  "--config", str(config_path), "--one-boot-heartbeat", *spin], stdout=log,
-                                 stderr=log, start_new_session=True)
+        with open(run_dir / "emulator.log", "wb") as log:
+            popen = start_emulator(["--port", pair.slave_path, "--config", str(config_path), "--one-boot-heartbeat",
+                                    *spin], log)
         # it answers every HIL_SENSOR from the first on (its heartbeat comes once its flight code is loaded), so
         # its first replies are waited for as long as any later one: the few ms a booting PX4 SITL gets let a
         # loaded machine shift them by steps, and the recording with them (manual_control_loss, three test
@@ -97,7 +114,8 @@ class EmulatorTarget:
         session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
                                free_run_wait_s=settings.watchdog_s, reversible_motors=settings.reversible_motors,
                                motor_count=settings.motor_count)
-        handle = BoardHandle(session, session, f"emulator on {pair.slave_path}",
+        warm = " (forked by the warm server)" if isinstance(popen, ForkedEmulator) else ""
+        handle = BoardHandle(session, session, f"emulator on {pair.slave_path}{warm}",
                              EmulatorProcess(popen, run_dir / "emulator.log"))
         # one thread serves the link: its state is the board's (runnable and silent: waiting for a CPU)
         session.watchdog.process_state = functools.partial(scheduler_state, popen.pid)

@@ -13,11 +13,28 @@ from hil.boards.gcs_relay import GcsBridge
 from hil.host.process_cpu import cpu_seconds
 
 
+class ChildProcess(Protocol):
+    """What the bench uses of a process it started: `subprocess.Popen`'s, or a forked emulator's
+    (`hil.boards.forked_emulator`)."""
+
+    pid: int
+
+    def poll(self) -> int | None: ...
+
+    def wait(self, timeout: float | None = None) -> int: ...
+
+    def terminate(self) -> None: ...
+
+    def kill(self) -> None: ...
+
+
 class BoardProcess(Protocol):
     """A board process the bench started (the emulator, PX4) and stops at the end of the run."""
 
-    popen: subprocess.Popen[bytes]
     paced_with_bench: bool  # a paced run raises it to real-time priority with the bench (a PX4 schedules itself)
+
+    @property
+    def popen(self) -> ChildProcess: ...
 
     def stop(self) -> None: ...
 

@@ -1,6 +1,7 @@
 """Running a sweep's samples on Dask: a LocalCluster of `jobs` worker processes by default, or any
 running cluster. Each sample is a whole `hil run` (plant FMU, sensors, MAVLink on a pty, emulator) in a
-subprocess of a worker, one at a time per worker; its outcome is a result, whatever the exit code.
+subprocess of a worker, one at a time per worker, its emulator forked by the worker's warm fork server; its outcome
+is a result, whatever the exit code.
 
 The client writes each finished sample's `result.json` under OUT/samples/NNNN/ as it arrives, so a
 stopped sweep keeps what finished and `--resume` flies only the rest.
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from hil.boards.forked_emulator import warm_emulators_for_this_process
 from hil.host.lifetime import die_with_parent
 from hil.sweep.options import CONNECT_TIMEOUT_S
 
@@ -50,7 +52,10 @@ def run_command(sample_path: Path) -> list[str]:
 
 
 def fly_sample(task: SampleTask) -> dict[str, Any]:
-    """On a worker: fly the sample with `hil run` and return its outcome (exit code, reason, metrics)."""
+    """On a worker: fly the sample with `hil run` and return its outcome (exit code, reason, metrics). The
+    worker's emulators come from one warm fork server, started with its first sample (~0.8 s of CPU less for
+    each later one)."""
+    warm_emulators_for_this_process()
     directory = Path(task.sample_dir)
     directory.mkdir(parents=True, exist_ok=True)
     scenario = directory / "scenario.yaml"

@@ -11,6 +11,8 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
+from firmware_interface.forkserver import FORKSERVER_ENV
+
 SHORT_HOVER = """\
 name: {name}
 description: {why}
@@ -32,8 +34,9 @@ def short_hover(directory: Path, name: str, bound_m: float = 1.0, duration_s: fl
 
 
 def run_pytest(cwd: Path, *args: str, timeout_s: float = 600) -> subprocess.CompletedProcess[str]:
-    """`python -m pytest ARGS` in `cwd`, without this session's PYTEST_ADDOPTS or the project's ini file."""
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTEST_ADDOPTS", "PYTEST_PLUGINS")}
+    """`python -m pytest ARGS` in `cwd`, without this session's PYTEST_ADDOPTS, its emulator fork server or the
+    project's ini file: as a user's CI starts it."""
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTEST_ADDOPTS", "PYTEST_PLUGINS", FORKSERVER_ENV)}
     return subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", *args], cwd=cwd, env=env,
                           capture_output=True, text=True, timeout=timeout_s)
 
