@@ -4,7 +4,8 @@
 Why a fork server: an emulator's own start is ~0.8 s of CPU (numba's start and loading the compiled flight code),
 paid again by every run. A process that starts many (a test suite, a CI job flying scenarios one `hil run` at a
 time) can keep one warm server, whose forks answer in a few ms. The server's socket path is given to the benches in
-`FORKSERVER_ENV`; without it every emulator is a fresh process, as before.
+`FORKSERVER_ENV`; without it every emulator is a fresh process, as before. A forked emulator has the server's
+environment, not its bench's: the emulator reads none of its own (numba's cache location is read once, at load).
 
 On a Unix stream socket, one connection per emulator: the bench sends one request (a JSON line with the emulator's
 arguments and working directory, the log file's descriptor passed with it); the server answers `pid N` once the

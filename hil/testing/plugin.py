@@ -9,6 +9,7 @@ imported until then.
 from __future__ import annotations
 
 import contextlib
+import os
 from pathlib import Path
 
 import pytest
@@ -46,11 +47,15 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 def pytest_configure(config: pytest.Config) -> None:
     """A session that collects scenarios checks its options now: a wrong board or controller is a usage error.
     Where its items fly on the emulator, a warm fork server starts their emulators for the whole session (each
-    pytest-xdist worker its own): ~0.8 s of CPU less per item (`firmware_interface.forkserver`)."""
+    pytest-xdist worker its own, unless one is named already): ~0.8 s of CPU less per item
+    (`firmware_interface.forkserver`)."""
     if collects(config):
+        from firmware_interface.forkserver import FORKSERVER_ENV
+
         settings = settings_of(config)
         xdist_controller = bool(getattr(config.option, "numprocesses", None)) and not hasattr(config, "workerinput")
-        if not xdist_controller and any(board.id.startswith("emulator") for board in settings.boards):
+        emulated = any(board.id.startswith("emulator") for board in settings.boards)
+        if emulated and not xdist_controller and not os.environ.get(FORKSERVER_ENV):
             from hil.boards.forked_emulator import emulator_forkserver
 
             server = contextlib.ExitStack()
