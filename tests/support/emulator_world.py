@@ -5,8 +5,6 @@ component 190, as QGroundControl). Results are read from the plant's true state,
 
 from __future__ import annotations
 
-import subprocess
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -19,6 +17,7 @@ from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder
+from hil.boards.emulator import start_emulator
 from hil.scenario.vehicles import plant_parameters
 from hil.sensors import Home, SensorsConfig, SensorSuite, TrueState
 from plant_fmu import Plant, PlantState
@@ -40,8 +39,8 @@ class World:
         # tests judge, and on a loaded 2-core machine a test process can be descheduled for longer than 0.5 s
         config.write_text(yaml.safe_dump({"params": params or {}, "failsafe_s": 5.0}))
         self.pair = open_pty_pair()
-        self.process = subprocess.Popen([sys.executable, "-m", "firmware_interface.emulator", "--port",
-                                         self.pair.slave_path, "--config", str(config)], stderr=subprocess.PIPE)
+        with open(tmp_path / "emulator.log", "wb") as log:  # as the bench starts it: forked when a server is named
+            self.process = start_emulator(["--port", self.pair.slave_path, "--config", str(config)], log)
         self.link = Link(self.pair.master)  # decodes every message
         self.bench = FrameEncoder(1, 51)
         self._buffer = np.zeros(512, dtype=np.uint8)
