@@ -2,7 +2,8 @@
 started: its pid, whether it has ended and with what code, and a way to stop it.
 
 It is the server's child, not the bench's, so its end comes as the server's `exit` line; signals go through a pidfd,
-which names that very process (a pid alone could have been reused once it was reaped)."""
+which names that very process (a pid alone could have been reused once it was reaped). Also here: a server for a
+block (`emulator_forkserver`) or for the rest of a process (`warm_emulators_for_this_process`)."""
 
 from __future__ import annotations
 
