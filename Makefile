@@ -1,6 +1,16 @@
 # The README's quick start: `make run` (set up, build, fly the main job on the emulator)
 # and `make test`. Both create .venv on first use from the project's own files.
-PYTHON ?= python3
+# .venv's interpreter: python3 on PATH, unless it was built without profile-guided optimisation (pyenv's default:
+# no --enable-optimizations) while the distribution's /usr/bin/python3 (built with it and with link-time
+# optimisation) is 3.11 or newer with venv. Measured on this machine: pyenv's CPython 3.11.7 ran plain Python 40 %
+# slower than Debian's 3.11.2, the emulator's step 14 % (docs/performance.md, twelfth stop). `make PYTHON=...`
+# chooses another; .venv keeps the interpreter it was made with until `make clean`.
+ifndef PYTHON
+PYTHON := $(shell python3 -c 'import sys, sysconfig; sys.exit(sys.base_prefix != "/usr" and "--enable-optimizations" \
+	not in (sysconfig.get_config_var("CONFIG_ARGS") or ""))' 2>/dev/null && echo python3 || \
+	(/usr/bin/python3 -c 'import ensurepip, sys; sys.exit(sys.version_info < (3, 11))' 2>/dev/null \
+	&& echo /usr/bin/python3 || echo python3))
+endif
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
@@ -8,6 +18,7 @@ STAMP := $(VENV)/.installed
 .PHONY: run test test-fast lint typecheck fmu paper bench-tools clean
 
 $(STAMP): pyproject.toml
+	@echo ".venv from $(PYTHON): $$($(PYTHON) -c 'import sys; print(sys.version.split()[0], sys.executable)')"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[test]'

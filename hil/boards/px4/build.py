@@ -51,6 +51,25 @@ LAYOUTS = {"sitl": ("px4_sitl_default", "px4-sitl-*.tar.gz"),
            "hitl": ("px4_sitl_nolockstep", "px4-hitl-nolockstep-*.tar.gz")}
 
 
+def unpack_inside(archive: tarfile.TarFile, target: Path) -> None:
+    """Unpack `archive` into `target` once every member's path and link are known to stay inside it (a Px4SetupError
+    names the first that does not); with PEP 706's "tar" filter too where Python has it (3.11.4 on: Debian 12's
+    CPython 3.11.2, which the Makefile prefers for its speed, has not)."""
+    root = target.resolve()
+    for member in archive.getmembers():
+        paths = [member.name]
+        if member.issym():
+            paths.append(os.path.join(os.path.dirname(member.name), member.linkname))
+        elif member.islnk():
+            paths.append(member.linkname)
+        if member.isdev() or any(not (root / path).resolve().is_relative_to(root) for path in paths):
+            raise Px4SetupError(f"{archive.name}: {member.name} would be unpacked outside {target}")
+    if hasattr(tarfile, "tar_filter"):
+        archive.extractall(target, filter="tar")
+    else:
+        archive.extractall(target)
+
+
 def find_build(root: Path, kind: str, scratch: Path) -> Path:
     """The `kind` build under `root`: `root/px4_sitl_default` (PX4-Autopilot/build) or a package
     `root/px4-sitl-*.tar.gz` unpacked into `scratch`. Raises Px4SetupError when there is neither."""
@@ -63,7 +82,7 @@ def find_build(root: Path, kind: str, scratch: Path) -> Path:
     target = scratch / kind
     target.mkdir(parents=True, exist_ok=True)
     with tarfile.open(packages[-1]) as archive:
-        archive.extractall(target, filter="tar")
+        unpack_inside(archive, target)
     for candidate in (target, *sorted(p for p in target.iterdir() if p.is_dir())):
         if (candidate / "bin" / "px4").is_file():
             return candidate
