@@ -51,10 +51,19 @@ LAYOUTS = {"sitl": ("px4_sitl_default", "px4-sitl-*.tar.gz"),
            "hitl": ("px4_sitl_nolockstep", "px4-hitl-nolockstep-*.tar.gz")}
 
 
-def unpack_inside(archive: tarfile.TarFile, target: Path) -> None:
-    """Unpack `archive` into `target` once every member's path and link are known to stay inside it (a Px4SetupError
-    names the first that does not); with PEP 706's "tar" filter too where Python has it (3.11.4 on: Debian 12's
-    CPython 3.11.2, which the Makefile prefers for its speed, has not)."""
+def unpack_inside(package: Path, target: Path) -> None:
+    """Unpack the tar `package` into `target` once every member's path and link are known to stay inside it (a
+    Px4SetupError names the first that does not); with PEP 706's "tar" filter too where Python has it (3.11.4 on:
+    Debian 12's CPython 3.11.2, which the Makefile prefers for its speed, has not)."""
+    with tarfile.open(package) as archive:
+        _check_members(package, archive, target)
+        if hasattr(tarfile, "tar_filter"):
+            archive.extractall(target, filter="tar")
+        else:
+            archive.extractall(target)
+
+
+def _check_members(package: Path, archive: tarfile.TarFile, target: Path) -> None:
     root = target.resolve()
     for member in archive.getmembers():
         paths = [member.name]
@@ -63,11 +72,7 @@ def unpack_inside(archive: tarfile.TarFile, target: Path) -> None:
         elif member.islnk():
             paths.append(member.linkname)
         if member.isdev() or any(not (root / path).resolve().is_relative_to(root) for path in paths):
-            raise Px4SetupError(f"{archive.name}: {member.name} would be unpacked outside {target}")
-    if hasattr(tarfile, "tar_filter"):
-        archive.extractall(target, filter="tar")
-    else:
-        archive.extractall(target)
+            raise Px4SetupError(f"{package}: {member.name} would be unpacked outside {target}")
 
 
 def find_build(root: Path, kind: str, scratch: Path) -> Path:
@@ -81,8 +86,7 @@ def find_build(root: Path, kind: str, scratch: Path) -> Path:
         raise Px4SetupError(f"{root}: neither {build_dir}/bin/px4 nor a {pattern} package")
     target = scratch / kind
     target.mkdir(parents=True, exist_ok=True)
-    with tarfile.open(packages[-1]) as archive:
-        unpack_inside(archive, target)
+    unpack_inside(packages[-1], target)
     for candidate in (target, *sorted(p for p in target.iterdir() if p.is_dir())):
         if (candidate / "bin" / "px4").is_file():
             return candidate
