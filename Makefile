@@ -2,9 +2,9 @@
 # and `make test`. Both create .venv on first use from the project's own files.
 # .venv's interpreter: python3 on PATH, unless it was built without profile-guided optimisation (pyenv's default:
 # no --enable-optimizations) while the distribution's /usr/bin/python3 (built with it and with link-time
-# optimisation) is 3.11 or newer with venv. Measured on this machine: pyenv's CPython 3.11.7 ran plain Python 40 %
-# slower than Debian's 3.11.2, the emulator's step 14 % (docs/performance.md, twelfth stop). `make PYTHON=...`
-# chooses another; .venv keeps the interpreter it was made with until `make clean`.
+# optimisation) is 3.11 or newer with venv. Measured on this machine against pyenv's CPython 3.11.7, Debian's
+# 3.11.2 ran plain Python in 40 % less time and the emulator's step in 12 % less CPU (docs/performance.md, twelfth
+# stop). `make PYTHON=...` chooses another; .venv keeps the interpreter it was made with until `make clean`.
 ifndef PYTHON
 PYTHON := $(shell python3 -c 'import sys, sysconfig; sys.exit(sys.base_prefix != "/usr" and "--enable-optimizations" \
 	not in (sysconfig.get_config_var("CONFIG_ARGS") or ""))' 2>/dev/null && echo python3 || \
