@@ -64,6 +64,9 @@ def unpack_inside(package: Path, target: Path) -> None:
 
 
 def _check_members(package: Path, archive: tarfile.TarFile, target: Path) -> None:
+    """A member's own path, a symbolic link's target (from the member's folder) and a hard link's must resolve
+    inside `target`, and no member may be a device: stricter than the "tar" filter (PEP 706's "data" filter checks
+    links and devices too); a PX4 package has relative links inside itself and no devices."""
     root = target.resolve()
     for member in archive.getmembers():
         paths = [member.name]
