@@ -1,5 +1,5 @@
 """A PX4 binary package is unpacked only when none of its members leads outside the scratch directory (what PEP 706's
-"tar" filter refuses, checked by the bench on every Python: Debian 12's 3.11.2 has no filter)."""
+"data" filter refuses, checked by the bench itself on every Python: Debian 12's 3.11.2 has no filters)."""
 
 from __future__ import annotations
 
