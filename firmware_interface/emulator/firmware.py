@@ -128,13 +128,17 @@ class EmulatedBoard(Flight):
         if self.last_sensor_t_us is None and boot_beat:  # no simulation clock yet
             self.telemetry.heartbeat()
             self.last_heartbeat = now
-        if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:
+        if self.armed and self._sensors_silent_at(now):
             # what came while this process waited for a CPU first: a starved emulator is no lost link
             self._answer(self.link.receive(0.0))
-        if self.armed and now - self.last_sensor_wall > self.config.failsafe_s:
-            self.disarm()
-            self.status(MAV_SEVERITY_CRITICAL, f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
+            if self.armed and self._sensors_silent_at(now):
+                self.disarm()
+                self.status(MAV_SEVERITY_CRITICAL,
+                            f"Failsafe: no HIL_SENSOR for {self.config.failsafe_s:g} s, disarming")
         self.missions.service()
+
+    def _sensors_silent_at(self, now: float) -> bool:
+        return now - self.last_sensor_wall > self.config.failsafe_s
 
     def _answer(self, messages: list[Message]) -> None:
         """Everything answered to one read leaves in one write: the bench wakes once a step, for the reply with
