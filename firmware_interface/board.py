@@ -336,7 +336,9 @@ class BoardSession:
 
         PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's time_usec in HIL_ACTUATOR_CONTROLS, so stale
         replies to earlier steps are skipped. Before lockstep starts (free-run) each step waits at most
-        `free_run_wait_s` for a first reply, so no backlog of replies builds up. A real board (HITL) is never waited
+        `free_run_wait_s` for a first reply, so no backlog of replies builds up; once a reply has started lockstep,
+        an earlier step's too, the step's own is waited for as long as the watchdog allows (on a loaded machine
+        the first replies can lag by more than the free-run wait). A real board (HITL) is never waited
         for: it runs on its own clock. Raises BoardError when the watchdog expires (`LinkWatchdog.check`).
         """
         if not self.waits_for_replies:
@@ -344,14 +346,19 @@ class BoardSession:
             self.poll(0.0)
             self.check_watchdog()
             return self.actuators
-        deadline = self.clock() + (self.watchdog.limit_s if self.lockstep else self.free_run_wait_s)
+        started = self.clock()
+        lockstep = self.lockstep
+        deadline = started + (self.watchdog.limit_s if lockstep else self.free_run_wait_s)
         while self._awaited_t_us is not None:
+            if self.lockstep and not lockstep:  # an earlier step's reply began lockstep: this one's reply will come
+                lockstep = True
+                deadline = started + self.watchdog.limit_s
             remaining = deadline - self.clock()
             if remaining <= 0:
                 if self.check_watchdog():  # its process waits for a CPU: look again shortly
                     deadline = self.clock() + RUNNABLE_RECHECK_S
                     continue
-                if self.lockstep:
+                if lockstep:
                     raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog.limit_s:.2f} s in lockstep")
                 break
             self.poll(remaining)

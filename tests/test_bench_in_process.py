@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.emulator import EmulatedBoard, build_config
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
-from hil.boards.emulator import emulator_config
+from hil.boards.emulator import emulator_config, emulator_session
 from hil.boards.handle import BoardHandle
+from hil.boards.target import LinkSettings
 from hil.exit_codes import EXIT_BOARD, EXIT_INTERRUPTED, EXIT_OK
 from hil.host.stop_signals import stopped_by_signals
 from hil.loop.board_io import SplitBoardIO
@@ -55,7 +55,7 @@ class ThreadBoard:
         self.stop = threading.Event()
         self.thread = threading.Thread(target=self.firmware.run, args=(self.stop.is_set,), daemon=True)
         self.thread.start()
-        session = BoardSession(Link(pair.master), SIMULATED, watchdog_s=1.0)
+        session = emulator_session(pair.master, LinkSettings(watchdog_s=1.0))
         session.wait_heartbeat(10.0)
         pair.release_slave()
         self.handle = BoardHandle(session, session, "emulator thread")

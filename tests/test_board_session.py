@@ -62,6 +62,25 @@ def test_lockstep_free_runs_then_one_sensor_step_per_actuator_message(board):
         assert out is not None and out.t_us == 10_000_000 + k * 4000  # the reply to this very step
 
 
+def test_a_reply_that_starts_lockstep_during_a_free_run_wait_makes_the_step_wait_for_its_own():
+    """The first reply comes a step late, while the bench waits, free-running, for the next step's; that step's
+    own reply comes after the free-run wait but well within the watchdog. From the first lockstep reply on the
+    board answers every step, so the step is waited for: not a lockstep failure after the free-run wait (seen
+    with a loaded machine's emulator: "no HIL_ACTUATOR_CONTROLS within 10.00 s" ten milliseconds into a wait)."""
+    scripted = ScriptedBoard(free_run=0, lag_first_answers_s=0.4)
+    session = BoardSession(scripted.start(), SIMULATED, watchdog_s=2.0, free_run_wait_s=0.2)
+    session.wait_heartbeat(2.0)
+    first = session.exchange(codec.SensorReadings(4000, (0, 0, -9.81), (0, 0, 0)))
+    assert first is None and not session.lockstep  # free-run: the held reply was not waited for past 0.2 s
+    began = time.monotonic()
+    second = session.exchange(codec.SensorReadings(8000, (0, 0, -9.81), (0, 0, 0)))
+    assert session.lockstep and second is not None and second.t_us == 8000  # its own reply, not the first's
+    assert time.monotonic() - began >= 0.4  # it came 0.4 s after the first's: past the free-run wait, waited for
+    third = session.exchange(codec.SensorReadings(12000, (0, 0, -9.81), (0, 0, 0)))
+    assert third is not None and third.t_us == 12000
+    scripted.stop()
+
+
 def test_arm_is_acknowledged_and_a_refusal_is_an_error(board):
     session = BoardSession(board.start(), SIMULATED)
     session.wait_heartbeat(2.0)

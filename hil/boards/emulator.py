@@ -15,6 +15,7 @@ import yaml
 from firmware_interface.board import SIMULATED, BoardError, BoardSession
 from firmware_interface.forkserver import FORKSERVER_ENV
 from firmware_interface.link import Link, open_pty_pair
+from firmware_interface.link.transports import FdTransport
 from hil.boards.forked_emulator import ForkedEmulator, fork_emulator
 from hil.boards.gcs_relay import DEFAULT_GCS
 from hil.boards.handle import BoardHandle, ChildProcess
@@ -27,6 +28,16 @@ from hil.sensors.config import GPS_PROFILES, resolve
 # the emulator's first heartbeat follows its flight code's compilation: ~0.2 s from the cache, ~8 s the first
 # time on a machine, longer when runs start side by side; a process that dies is reported at once
 EMULATOR_START_S = 60.0
+
+
+def emulator_session(master: FdTransport, settings: LinkSettings) -> BoardSession:
+    """The bench's side of an emulator's pty. The emulator answers every HIL_SENSOR from the first on (its heartbeat
+    comes once its flight code is loaded), so its first replies are waited for as long as any later one: the few
+    ms a booting PX4 SITL gets let a loaded machine shift them by steps, and the recording with them
+    (manual_control_loss, three test files at a time)."""
+    return BoardSession(Link(master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
+                        free_run_wait_s=settings.watchdog_s, reversible_motors=settings.reversible_motors,
+                        motor_count=settings.motor_count)
 
 
 @dataclass
@@ -107,13 +118,7 @@ class EmulatorTarget:
         with open(run_dir / "emulator.log", "wb") as log:
             popen = start_emulator(["--port", pair.slave_path, "--config", str(config_path), "--one-boot-heartbeat",
                                     *spin], log)
-        # it answers every HIL_SENSOR from the first on (its heartbeat comes once its flight code is loaded), so
-        # its first replies are waited for as long as any later one: the few ms a booting PX4 SITL gets let a
-        # loaded machine shift them by steps, and the recording with them (manual_control_loss, three test
-        # files at a time)
-        session = BoardSession(Link(pair.master, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               free_run_wait_s=settings.watchdog_s, reversible_motors=settings.reversible_motors,
-                               motor_count=settings.motor_count)
+        session = emulator_session(pair.master, settings)
         warm = " (forked by the warm server)" if isinstance(popen, ForkedEmulator) else ""
         handle = BoardHandle(session, session, f"emulator on {pair.slave_path}{warm}",
                              EmulatorProcess(popen, run_dir / "emulator.log"))

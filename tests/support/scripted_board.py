@@ -21,6 +21,9 @@ class ScriptedBoard:
     send_heartbeat: bool = True
     answer_sensors: bool = True
     stall_s: float = 0.0  # silent this long before answering the next HIL_SENSOR (once): a board off its CPU
+    # not None: the first answer is held until the next HIL_SENSOR comes, and that one's goes this much later
+    # (replies lagging a step behind the bench's free-run waits, as on a loaded machine)
+    lag_first_answers_s: float | None = None
     received: list[str] = field(default_factory=list)
     messages: dict[str, Any] = field(default_factory=dict)  # the last message of each kind, decoded
     armed: bool = False
@@ -43,6 +46,7 @@ class ScriptedBoard:
     def _run(self) -> None:
         sensors = 0
         beat = 0
+        held: Any = None  # a HIL_SENSOR whose answer waits for the next (`lag_first_answers_s`)
         try:
             while not self._stop.is_set():
                 beat += 1
@@ -57,9 +61,16 @@ class ScriptedBoard:
                         time.sleep(self.stall_s)
                         self.stall_s = 0.0
                         sensors += 1
-                        if sensors > self.free_run:
-                            fields = codec.hil_actuator_controls_fields(msg.time_usec, (0.5,) * 4, self.armed, True)
-                            self.link.send_fields("HIL_ACTUATOR_CONTROLS", fields)
+                        if sensors <= self.free_run:
+                            continue
+                        if self.lag_first_answers_s is not None:
+                            if held is None:
+                                held = msg
+                                continue
+                            self._answer(held)
+                            time.sleep(self.lag_first_answers_s)
+                            self.lag_first_answers_s = None
+                        self._answer(msg)
                     elif kind == "PARAM_SET":  # PX4 keeps the field's four bytes and sends them back, typed
                         self.params[msg.param_id] = (msg.param_value, msg.param_type)
                         self.link.send("PARAM_VALUE", param_id=msg.param_id, param_value=msg.param_value,
@@ -73,3 +84,7 @@ class ScriptedBoard:
                                        target_component=msg.get_srcComponent())
         except LinkLost:
             return
+
+    def _answer(self, sensor: Any) -> None:
+        fields = codec.hil_actuator_controls_fields(sensor.time_usec, (0.5,) * 4, self.armed, True)
+        self.link.send_fields("HIL_ACTUATOR_CONTROLS", fields)
