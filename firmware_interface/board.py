@@ -35,9 +35,9 @@ from firmware_interface.board_requests import (
 from firmware_interface.board_watchdog import RUNNABLE_RECHECK_S, LinkWatchdog
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
+from firmware_interface.statustext import StatusTextJoiner
 
 HITL_HINT = "is SYS_HITL=1 set, the board rebooted, and the port not held by QGroundControl?"
-STATUSTEXT_CHUNK, STATUSTEXT_MAX_CHUNKS = 50, 8
 BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
 # the mission protocol as a ground station takes part in it, and the mission's progress
 MISSION_KINDS = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK", "MISSION_CURRENT", "MISSION_ITEM_REACHED")
@@ -120,7 +120,7 @@ class BoardSession:
         self._truth_ahead: bytes | None = None  # a HIL_STATE_QUATERNION frame for the next step's write
         self._last_heartbeat_sent = -1e9
         self.ground_station_silent = False  # a ground-station loss: the bench's own GCS heartbeat is not sent
-        self._text_chunks: dict[int, list[str]] = {}
+        self._texts = StatusTextJoiner()
         self._last_rx = clock()
         self.link.encoder.component_id = BENCH_COMPONENT_ID
         self.link.decoded_ids = DECODED_IDS
@@ -212,7 +212,7 @@ class BoardSession:
             integer = msg.param_type == MAV_PARAM_TYPE_INT32
             self.report.params[msg.param_id] = float(float_as_int32(msg.param_value) if integer else msg.param_value)
         elif kind == "STATUSTEXT":
-            text = self._statustext(msg)
+            text = self._texts.join(msg)
             if text is None:
                 return  # more chunks to come
             msg.text = text
@@ -220,18 +220,6 @@ class BoardSession:
         if kind in INBOX_KINDS:
             self.inbox.append(msg)
         self.report.latest[kind] = msg
-
-    def _statustext(self, msg: Message) -> str | None:
-        """The whole text: PX4 sends a text over 50 characters in chunks sharing one `id`, the last shorter
-        than 50; None until that last chunk."""
-        if msg.id == 0:
-            return msg.text.strip()
-        parts = self._text_chunks.setdefault(msg.id, [])
-        parts.append(msg.text)
-        if len(msg.text) == STATUSTEXT_CHUNK and len(parts) < STATUSTEXT_MAX_CHUNKS:
-            return None
-        del self._text_chunks[msg.id]
-        return "".join(parts).strip()
 
     def _handle_heartbeat(self, msg: Message) -> None:
         if msg.autopilot == MAV_AUTOPILOT_INVALID:  # another simulator or GCS, not the board

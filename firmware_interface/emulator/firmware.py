@@ -63,13 +63,13 @@ from firmware_interface.emulator.telemetry import Telemetry
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Link, LinkLost, Message
 from firmware_interface.px4_modes import FlightMode
+from firmware_interface.statustext import STATUSTEXT_CHUNK, text_chunks
 
 # what a GCS may use
 CAPABILITIES = (MAV_PROTOCOL_CAPABILITY_MAVLINK2 | MAV_PROTOCOL_CAPABILITY_PARAM_FLOAT
                 | MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED | MAV_PROTOCOL_CAPABILITY_COMMAND_INT
                 | MAV_PROTOCOL_CAPABILITY_MISSION_INT | MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT)
 FLIGHT_SW_VERSION = (0 << 24) | (1 << 16) | (0 << 8) | 255  # hil-bench emulator 0.1.0, release
-STATUSTEXT_CHUNK = 50
 
 
 class EmulatedBoard(Flight):
@@ -336,7 +336,7 @@ class EmulatedBoard(Flight):
 
     def status(self, severity: int, text: str) -> None:
         """STATUSTEXT; a text longer than 50 characters in chunks of one id (id 0: a text in one piece)."""
-        chunks = [text[i:i + STATUSTEXT_CHUNK] for i in range(0, len(text), STATUSTEXT_CHUNK)] or [""]
+        chunks = text_chunks(text)
         text_id = 0
         if len(chunks) > 1:
             self._text_id = self._text_id % 0xFFFF + 1
