@@ -6,7 +6,8 @@ sensors, estimator, SMARC, MCAP at full rate, Zenoh on), gust again with `--spin
 poll for each other's frames: what a machine with a core free for each gains); the paper's 1 kHz helix per
 controller; and the wall-clock pacing a Pixhawk gets (`--px4-hitl`, PX4's HITL code path on a pty). A round runs
 them back to back; medians of the rounds are printed, with the load average, then where a bench step's time goes.
-Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--quick]
+Every row runs with idle CPUs kept polling, as `hil run` keeps them (`--power-save`: sleeping, every row).
+Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--power-save] [--quick]
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from px4_sitl_speed import MINIMAL_SIM_S, QUICK_MINIMAL_SIM_S, minimal_simulator  # noqa: E402
-from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
+from run_timing import benchmark_parser, idle_cpus_alike, run_metrics, scenario_file  # noqa: E402
 
 from firmware_interface.link import open_pty_pair  # noqa: E402
 from hil.boards.px4.build import Px4Build, Px4SetupError, find_build  # noqa: E402
@@ -237,8 +238,11 @@ def main() -> int:
     parser = benchmark_parser(__doc__)
     parser.add_argument("--px4", help="a directory with PX4 builds or packages (default: HIL_PX4_DIR)")
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--power-save", action="store_true",
+                        help="idle CPUs may sleep for every row (by default all rows run with them kept polling, as "
+                             "hil run keeps them)")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, idle_cpus_alike(args.power_save):
         scratch = Path(tmp)
         try:
             sitl, hitl = builds(args, scratch)
@@ -253,9 +257,10 @@ def main() -> int:
         for k in range(1 if args.quick else args.rounds):
             rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick))
             print(f"round {k + 1}: " + ", ".join(f"{n} {v:.1f}x" for n, v in rounds[-1]["rtf"].items()), flush=True)
+        steps = 250 if args.quick else 5000
+        floors_us = kernel_floor_us(steps), python_floor_us(steps)
     print_table(rounds, first_gust)
-    steps = 250 if args.quick else 5000
-    print_breakdowns(rounds, kernel_floor_us(steps), python_floor_us(steps))
+    print_breakdowns(rounds, *floors_us)
     return 0
 
 

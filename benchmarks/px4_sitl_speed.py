@@ -5,7 +5,8 @@ The minimal simulator is the reference for PX4's own cost: it sends one HIL_SENS
 rest, with a little noise so PX4 does not call its sensors stale) and a HIL_GPS at 10 Hz, waits for
 the HIL_ACTUATOR_CONTROLS that echoes that step's time, and repeats; no plant, no sensor models,
 no recording. Rounds alternate the two so that the machine's load hits both alike; medians are
-printed. Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--quick]
+printed. Both run with idle CPUs kept polling, as `hil run` keeps them (`--power-save`: sleeping, both).
+Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--power-save] [--quick]
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from run_timing import benchmark_parser, run_metrics, scenario_file  # noqa: E402
+from run_timing import benchmark_parser, idle_cpus_alike, run_metrics, scenario_file  # noqa: E402
 
 from firmware_interface import hil_codec as codec  # noqa: E402
 from hil.boards.px4.build import Px4Build, find_build  # noqa: E402
@@ -77,9 +78,12 @@ def main() -> int:
     parser = benchmark_parser(__doc__)
     parser.add_argument("--px4", help="a px4_sitl_default build (default: from HIL_PX4_DIR)")
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--power-save", action="store_true",
+                        help="idle CPUs may sleep for every row (by default all rows run with them kept polling, as "
+                             "hil run keeps them)")
     args = parser.parse_args()
     rounds = 1 if args.quick else args.rounds
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp, idle_cpus_alike(args.power_save):
         scratch = Path(tmp)
         if args.px4:
             build = Px4Build.locate(args.px4, "--px4")

@@ -1,5 +1,6 @@
 """Shared by the benchmarks: the command line with `--quick` (a smoke run, tests/test_benchmarks_smoke.py),
-the shipped scenarios with a mission of a few seconds for it, and a whole `hil run`'s real-time factor."""
+the shipped scenarios with a mission of a few seconds for it, a whole `hil run`'s real-time factor, and the same
+idle CPUs for a reference and the runs measured against it."""
 
 from __future__ import annotations
 
@@ -7,11 +8,14 @@ import argparse
 import json
 import subprocess
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from hil.host.idle_cpus import idle_cpus_polling
 from hil.host.lifetime import die_with_parent
 from hil.sweep.design import set_path
 
@@ -51,12 +55,26 @@ def scenario_file(name: str, quick: bool, scratch: Path) -> Path:
     return short
 
 
+_runs_extra: list[str] = []  # what every `hil run` of `run_metrics` is given besides its own options
+
+
+@contextmanager
+def idle_cpus_alike(power_save: bool) -> Iterator[None]:
+    """Every row on the same idle CPUs: a `hil run` keeps them polling while it flies (`hil/host/idle_cpus.py`),
+    which a reference (PX4 and a minimal simulator) would not, so the benchmark holds the same request for its whole
+    run; or, with `power_save`, none anywhere (`--power-save` for every run). Printed: it moves every figure."""
+    _runs_extra[:] = ["--power-save"] if power_save else []
+    with idle_cpus_polling(not power_save) as note:
+        print(f"idle CPUs, every row alike: {note}", flush=True)
+        yield
+
+
 def run_metrics(scenario: Path, extra: list[str], runs: Path, accept_exits: tuple[int, ...] = (0,),
                 env: dict[str, str] | None = None) -> dict[str, Any]:
     """Fly `scenario` once as a user types it (telemetry on, no report) into the empty directory `runs`; the
     run's metrics. An exit outside `accept_exits` is printed with its reason."""
     result = subprocess.run([sys.executable, "-m", "hil", "run", "--no-report", str(scenario), "--runs", str(runs),
-                             *extra], capture_output=True, text=True, cwd=ROOT, timeout=900, env=env,
+                             *extra, *_runs_extra], capture_output=True, text=True, cwd=ROOT, timeout=900, env=env,
                             preexec_fn=die_with_parent)
     if not runs.is_dir():
         raise RuntimeError(f"hil run {scenario} {' '.join(extra)} exited {result.returncode}: {result.stderr[-500:]}")

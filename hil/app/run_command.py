@@ -112,7 +112,8 @@ def _run_options(args: argparse.Namespace, scenario: Any) -> Any:
     return RunOptions(board=board, foxglove=args.foxglove, realtime=args.realtime, spin_wait=args.spin_wait,
                       gcs=[] if args.no_gcs else args.gcs, runs_root=Path(args.runs), keep_failed=args.keep_failed,
                       telemetry=None if args.no_telemetry else zenoh_options(args),
-                      telemetry_rates_hz=scenario.telemetry.rates_hz, speed_factor=args.speed_factor)
+                      telemetry_rates_hz=scenario.telemetry.rates_hz, speed_factor=args.speed_factor,
+                      idle_cpus_poll=not args.power_save)
 
 
 def _speed_problem(args: argparse.Namespace, board: Any, scenario: Any) -> str | None:
@@ -196,6 +197,10 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
                      help="wait for the board's lockstep replies by polling a while before sleeping, and the "
                           "emulator the bench starts for its frames: faster with a core free for each, slower on a "
                           "busy machine (docs/performance.md)")
+    run.add_argument("--power-save", action="store_true",
+                     help="let idle CPUs sleep while the run flies; by default the bench asks the kernel to keep them "
+                          "polling (/dev/cpu_dma_latency, as cyclictest does), which saves each wake-up of a lockstep "
+                          "step the CPU's exit from idle (docs/performance.md)")
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")

@@ -35,6 +35,7 @@ from hil.exit_codes import (
     EXIT_OK,
 )
 from hil.host.beside import beside
+from hil.host.idle_cpus import idle_cpus_polling
 from hil.host.stop_signals import stopped_by_signals
 from hil.judge.behaviour import behaviour_judge
 from hil.judge.metrics import MetricsCollector, check_expectations
@@ -72,6 +73,7 @@ class RunOptions:
     foxglove: str | None = None  # HOST:PORT of a live Foxglove WebSocket server; None: none
     speed_factor: float = 1.0  # a lockstep board paced at this many times the wall clock (an outside pilot's runs
     # are paced, at 1 by default: PX4's simulators' convention, PX4_SIM_SPEED_FACTOR)
+    idle_cpus_poll: bool = True  # idle CPUs kept polling while the run flies (False: `--power-save`)
 
 
 @dataclass
@@ -193,10 +195,11 @@ class _Run:
         ready_to_step()
         stepper = Stepper(world, handle, pilot, [metrics, behaviour, *sinks], step_us(scenario), self.paced,
                           self.policy.ground_truth, progress, self.options.speed_factor)
-        result = stepper.run()
+        with idle_cpus_polling(self.options.idle_cpus_poll) as idle_cpus:
+            result = stepper.run()
         report.reason, report.code, report.internal_error = result.reason, result.exit_code, result.internal_error
         report.final_t_us = stepper.t_us
-        report.metrics = {**metrics.compute(), "timing": stepper.timing.figures(self.paced),
+        report.metrics = {**metrics.compute(), "timing": {**stepper.timing.figures(self.paced), "idle_cpus": idle_cpus},
                           "link": handle.hil_session.link.counters, **pilot.summary(),
                           "behaviour": behaviour.figures(), **_link_figures(stepper, handle)}
         if report.code == EXIT_BOARD and (note := handle.exit_note(DYING_BOARD_S)):

@@ -72,6 +72,8 @@ def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str
             lines.append(f"sensor -> actuator round trip: p50 {rt['p50']:.0f} us, p99 {rt['p99']:.0f} us")
         if timing.get("board_cpu_us_per_step") is not None:
             lines.append(f"board's own CPU: {timing['board_cpu_us_per_step']:.0f} us per step")
+        if timing.get("idle_cpus"):
+            lines.append(f"idle CPUs: {timing['idle_cpus']}")
         if "period_jitter_us" in timing:
             j = timing["period_jitter_us"]
             lines.append(f"step period jitter: p50 {j['p50']:.0f} us, p99 {j['p99']:.0f} us, max {j['max']:.0f} us, "

@@ -1,0 +1,76 @@
+"""Idle CPUs kept polling while a run flies: the PM QoS request on /dev/cpu_dma_latency, checked against the kernel's
+own figures (the combined request it reads back, the bench's open files in /proc) rather than the bench's word."""
+
+from __future__ import annotations
+
+import os
+import struct
+from pathlib import Path
+
+import pytest
+
+from hil.host.idle_cpus import CPU_DMA_LATENCY, idle_cpus_polling
+from hil.loop.frame import StepFrame
+from hil.loop.sink import FrameSink
+from hil.run.runner import RunOptions, run_scenario
+from hil.scenario.loader import load_scenario
+
+needs_the_device = pytest.mark.skipif(not os.access(CPU_DMA_LATENCY, os.W_OK),
+                                      reason=f"{CPU_DMA_LATENCY} not writable here (needs root)")
+
+
+def combined_request_us() -> int:
+    """What the kernel allows idle CPUs now, every process's request combined (reading the device gives it)."""
+    with open(CPU_DMA_LATENCY, "rb") as device:
+        return int(struct.unpack("=i", device.read(4))[0])
+
+
+def holds_the_device() -> bool:
+    """Whether this process has the device open: the kernel drops a request when its file closes."""
+    fds = Path("/proc/self/fd")
+    return any(os.path.realpath(fds / fd) == str(CPU_DMA_LATENCY) for fd in os.listdir(fds))
+
+
+@needs_the_device
+def test_the_request_holds_zero_while_the_block_runs_and_is_dropped_after():
+    assert not holds_the_device()
+    with idle_cpus_polling(True) as note:
+        assert combined_request_us() == 0 and holds_the_device()
+        assert note == f"polling ({CPU_DMA_LATENCY} held at 0 us)"
+    assert not holds_the_device()
+    with idle_cpus_polling(False) as note:
+        assert not holds_the_device() and note == "sleeping (--power-save)"
+
+
+def test_a_device_that_cannot_be_opened_leaves_the_cpus_as_they_are_and_says_why(tmp_path):
+    missing = tmp_path / "no_such_device"
+    with idle_cpus_polling(True, missing) as note:
+        assert note == f"sleeping: {missing} not writable (No such file or directory; needs root)"
+    assert not missing.exists()
+
+
+@needs_the_device
+@pytest.mark.e2e
+@pytest.mark.parametrize("power_save", [False, True])
+def test_a_run_holds_the_request_for_every_step_unless_told_to_save_power(tmp_path, power_save):
+    scenario_path = tmp_path / "hold.yaml"
+    scenario_path.write_text("name: hold\nduration_s: 0.5\nseed: 5\nend: disarm\n"
+                             "reference: {type: hover, altitude_m: 1}\n")
+    seen: list[tuple[bool, int]] = []
+
+    def look(frame: StepFrame) -> None:
+        seen.append((holds_the_device(), combined_request_us()))
+
+    outcome = run_scenario(load_scenario(scenario_path),
+                           RunOptions(runs_root=tmp_path / "runs", telemetry=None, gcs=[],
+                                      idle_cpus_poll=not power_save), [FrameSink(look)])
+    assert outcome.exit_code == 0, outcome.reason
+    assert len(seen) > 100  # every step of the flight was looked at
+    if power_save:
+        assert not any(held for held, _ in seen)
+        assert outcome.metrics["timing"]["idle_cpus"] == "sleeping (--power-save)"
+    else:
+        assert seen == [(True, 0)] * len(seen)
+        assert outcome.metrics["timing"]["idle_cpus"].startswith("polling")
+        assert "idle CPUs: polling" in outcome.summary
+    assert not holds_the_device()  # released with the run
