@@ -188,19 +188,7 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
                      help="seconds the board has to send its first heartbeat, and a lockstep board (the emulator, PX4 "
                           "SITL) for each silence until it has booted (default 60 for the emulator and a PX4 SITL you "
                           "started, 30 for --px4 and --px4-hitl, 10 for serial)")
-    run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
-    run.add_argument("--speed-factor", type=float, default=1.0, metavar="N",
-                     help="pace a lockstep board at N times the wall clock (as PX4_SIM_SPEED_FACTOR; PX4 SITL is told "
-                          "it). An outside pilot's run is paced at 1 by default; a faster one lets a script fly N "
-                          "times faster than it would take a person")
-    run.add_argument("--spin-wait", action="store_true",
-                     help="wait for the board's lockstep replies by polling a while before sleeping, and the "
-                          "emulator the bench starts for its frames: faster with a core free for each, slower on a "
-                          "busy machine (docs/performance.md)")
-    run.add_argument("--power-save", action="store_true",
-                     help="let idle CPUs sleep while the run flies; by default the bench asks the kernel to keep them "
-                          "polling (/dev/cpu_dma_latency, as cyclictest does), which saves each wake-up of a lockstep "
-                          "step the CPU's exit from idle (docs/performance.md)")
+    _add_pacing_arguments(run)
     run.add_argument("--controller", choices=CONTROLLERS,
                      help="override the emulator's controller")
     run.add_argument("--seed", type=int, help="override the scenario's seed")
@@ -221,3 +209,20 @@ def add_run_command(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--telemetry-rate", action="append", metavar="CHANNEL=HZ", help="e.g. state=100 (repeatable)")
     add_zenoh_arguments(run)
     run.set_defaults(func=_cmd_run)
+
+
+def _add_pacing_arguments(run: argparse.ArgumentParser) -> None:
+    """How fast the run goes, and what of the machine it may take for it."""
+    run.add_argument("--realtime", action="store_true", help="pace the emulator in wall-clock real time")
+    run.add_argument("--speed-factor", type=float, default=1.0, metavar="N",
+                     help="pace a lockstep board at N times the wall clock (as PX4_SIM_SPEED_FACTOR; PX4 SITL is told "
+                          "it). An outside pilot's run is paced at 1 by default; a faster one lets a script fly N "
+                          "times faster than it would take a person")
+    run.add_argument("--spin-wait", action="store_true",
+                     help="wait for the board's lockstep replies by polling a while before sleeping, and the "
+                          "emulator the bench starts for its frames: faster with a core free for each and idle CPUs "
+                          "sleeping (--power-save), slower otherwise (docs/performance.md)")
+    run.add_argument("--power-save", action="store_true",
+                     help="let idle CPUs sleep while the run flies; by default the bench asks the kernel to keep them "
+                          "polling (/dev/cpu_dma_latency, as cyclictest does), which saves each wake-up of a lockstep "
+                          "step the CPU's exit from idle (docs/performance.md)")
