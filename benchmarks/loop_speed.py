@@ -6,7 +6,8 @@ sensors, estimator, SMARC, MCAP at full rate, Zenoh on), gust again with `--spin
 poll for each other's frames: what a machine with a core free for each gains); the paper's 1 kHz helix per
 controller; and the wall-clock pacing a Pixhawk gets (`--px4-hitl`, PX4's HITL code path on a pty). A round runs
 them back to back; medians of the rounds are printed, with the load average, then where a bench step's time goes.
-Every row runs with idle CPUs kept polling, as `hil run` keeps them (`--power-save`: sleeping, every row).
+The reference and the lockstep rows run with idle CPUs kept polling, as a lockstep `hil run` keeps them, the paced
+row with them halting, as a paced one leaves them (`--power-save`: halting for every row).
 Usage: python benchmarks/loop_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--power-save] [--quick]
 """
 
@@ -46,22 +47,24 @@ FLOOR_STALL_US = 1000  # a cyclictest wake-up this late is a stall of the machin
 TARGETS = {"gust": 1.0, "px4 hover": 0.9, "helix": 5.0, "pacing p99": 200.0}
 
 
-def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path, quick: bool) -> dict[str, Any]:
+def one_round(sitl: Px4Build, hitl: Path, files: dict[str, Path], scratch: Path, quick: bool,
+              power_save: bool) -> dict[str, Any]:
     """Every row once, back to back; real-time factors, the HITL run's pacing, and the bench breakdowns."""
-    reference_rtf, reference_cpu_us = minimal_simulator(sitl, scratch / "min",
-                                                        QUICK_MINIMAL_SIM_S if quick else MINIMAL_SIM_S)
-    rtf: dict[str, float] = {"reference": reference_rtf}
-    board_cpu: dict[str, float] = {"reference": reference_cpu_us}
+    rtf: dict[str, float] = {}
+    board_cpu: dict[str, float] = {}
     breakdown: dict[str, dict[str, float]] = {}
     runs = {"px4 hover": (files["hover"], ["--px4", str(sitl.root)]), "hover": (files["hover"], []),
             "gust": (files["gust"], []), "gust spin-wait": (files["gust"], ["--spin-wait"])}
     runs |= {f"helix {c}": (files["helix"], ["--controller", c]) for c in CONTROLLERS}
-    for name, (scenario, extra) in runs.items():
-        # exit 1 (the scenario's bounds, SMARC's) is expected of the other controllers on the helix
-        timing = run_metrics(scenario, extra, scratch / name.replace(" ", "_"), accept_exits=(0, 1))["timing"]
-        rtf[name] = timing["realtime_factor"]
-        breakdown[name] = timing["breakdown_us_per_step"]
-        board_cpu[name] = timing["board_cpu_us_per_step"]
+    with idle_cpus_alike(power_save):
+        rtf["reference"], board_cpu["reference"] = minimal_simulator(sitl, scratch / "min",
+                                                                     QUICK_MINIMAL_SIM_S if quick else MINIMAL_SIM_S)
+        for name, (scenario, extra) in runs.items():
+            # exit 1 (the scenario's bounds, SMARC's) is expected of the other controllers on the helix
+            timing = run_metrics(scenario, extra, scratch / name.replace(" ", "_"), accept_exits=(0, 1))["timing"]
+            rtf[name] = timing["realtime_factor"]
+            breakdown[name] = timing["breakdown_us_per_step"]
+            board_cpu[name] = timing["board_cpu_us_per_step"]
     with machine_floor(scratch / "cyclictest.json") as floor:
         paced = run_metrics(files["paced"], ["--px4-hitl", str(hitl)], scratch / "hitl",
                             accept_exits=(0, 1))["timing"]
@@ -242,7 +245,7 @@ def main() -> int:
                         help="idle CPUs may sleep for every row (by default all rows run with them kept polling, as "
                              "hil run keeps them)")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as tmp, idle_cpus_alike(args.power_save):
+    with tempfile.TemporaryDirectory() as tmp:
         scratch = Path(tmp)
         try:
             sitl, hitl = builds(args, scratch)
@@ -252,13 +255,17 @@ def main() -> int:
         files = {name: scenario_file(name, args.quick, scratch) for name in ("hover", "gust")}
         files["helix"] = scenario_file("paper_helix", args.quick, scratch)
         files["paced"] = paced_scenario(files["hover"], args.quick, scratch)
-        first_gust = first_run(files["gust"], scratch, args.quick)
+        with idle_cpus_alike(args.power_save) as idle_note:
+            print(f"idle CPUs for the reference and the lockstep rows: {idle_note}; for the paced row: halting, as "
+                  "hil run leaves them in a paced run", flush=True)
+            first_gust = first_run(files["gust"], scratch, args.quick)
         rounds = []
         for k in range(1 if args.quick else args.rounds):
-            rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick))
+            rounds.append(one_round(sitl, hitl, files, scratch / f"round{k}", args.quick, args.power_save))
             print(f"round {k + 1}: " + ", ".join(f"{n} {v:.1f}x" for n, v in rounds[-1]["rtf"].items()), flush=True)
         steps = 250 if args.quick else 5000
-        floors_us = kernel_floor_us(steps), python_floor_us(steps)
+        with idle_cpus_alike(args.power_save):  # the floors of the lockstep rows' steps
+            floors_us = kernel_floor_us(steps), python_floor_us(steps)
     print_table(rounds, first_gust)
     print_breakdowns(rounds, *floors_us)
     return 0

@@ -5,7 +5,7 @@ The minimal simulator is the reference for PX4's own cost: it sends one HIL_SENS
 rest, with a little noise so PX4 does not call its sensors stale) and a HIL_GPS at 10 Hz, waits for
 the HIL_ACTUATOR_CONTROLS that echoes that step's time, and repeats; no plant, no sensor models,
 no recording. Rounds alternate the two so that the machine's load hits both alike; medians are
-printed. Both run with idle CPUs kept polling, as `hil run` keeps them (`--power-save`: sleeping, both).
+printed. Both run with idle CPUs kept polling, as a lockstep `hil run` keeps them (`--power-save`: halting, both).
 Usage: python benchmarks/px4_sitl_speed.py [--px4 DIR | HIL_PX4_DIR=...] [--rounds N] [--power-save] [--quick]
 """
 
@@ -83,7 +83,8 @@ def main() -> int:
                              "hil run keeps them)")
     args = parser.parse_args()
     rounds = 1 if args.quick else args.rounds
-    with tempfile.TemporaryDirectory() as tmp, idle_cpus_alike(args.power_save):
+    with tempfile.TemporaryDirectory() as tmp, idle_cpus_alike(args.power_save) as idle_note:
+        print(f"idle CPUs, both rows alike: {idle_note}", flush=True)
         scratch = Path(tmp)
         if args.px4:
             build = Px4Build.locate(args.px4, "--px4")

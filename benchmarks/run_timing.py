@@ -59,14 +59,14 @@ _runs_extra: list[str] = []  # what every `hil run` of `run_metrics` is given be
 
 
 @contextmanager
-def idle_cpus_alike(power_save: bool) -> Iterator[None]:
-    """Every row on the same idle CPUs: a `hil run` keeps them polling while it flies (`hil/host/idle_cpus.py`),
-    which a reference (PX4 and a minimal simulator) would not, so the benchmark holds the same request for its whole
-    run; or, with `power_save`, none anywhere (`--power-save` for every run). Printed: it moves every figure."""
+def idle_cpus_alike(power_save: bool) -> Iterator[str]:
+    """A reference and the lockstep runs against it on the same idle CPUs: a lockstep `hil run` keeps them polling
+    while it flies (`hil/host/idle_cpus.py`), which a reference (PX4 and a minimal simulator) would not, so the
+    benchmark holds the same request while the block runs; or, with `power_save`, none anywhere (`--power-save`
+    for every run). Yields what holds, to be printed: it moves every figure."""
     _runs_extra[:] = ["--power-save"] if power_save else []
-    with idle_cpus_polling(not power_save) as note:
-        print(f"idle CPUs, every row alike: {note}", flush=True)
-        yield
+    with idle_cpus_polling("--power-save" if power_save else None) as note:
+        yield note
 
 
 def run_metrics(scenario: Path, extra: list[str], runs: Path, accept_exits: tuple[int, ...] = (0,),

@@ -34,25 +34,26 @@ def holds_the_device() -> bool:
 @needs_the_device
 def test_the_request_holds_zero_while_the_block_runs_and_is_dropped_after():
     assert not holds_the_device()
-    with idle_cpus_polling(True) as note:
+    with idle_cpus_polling() as note:
         assert combined_request_us() == 0 and holds_the_device()
         assert note == f"polling ({CPU_DMA_LATENCY} held at 0 us)"
     assert not holds_the_device()
-    with idle_cpus_polling(False) as note:
+    with idle_cpus_polling("--power-save") as note:
         assert not holds_the_device() and note == "sleeping (--power-save)"
 
 
 def test_a_device_that_cannot_be_opened_leaves_the_cpus_as_they_are_and_says_why(tmp_path):
     missing = tmp_path / "no_such_device"
-    with idle_cpus_polling(True, missing) as note:
+    with idle_cpus_polling(None, missing) as note:
         assert note == f"sleeping: {missing} not writable (No such file or directory; needs root)"
     assert not missing.exists()
 
 
 @needs_the_device
 @pytest.mark.e2e
-@pytest.mark.parametrize("power_save", [False, True])
-def test_a_run_holds_the_request_for_every_step_unless_told_to_save_power(tmp_path, power_save):
+@pytest.mark.parametrize(("power_save", "realtime"), [(False, False), (True, False), (False, True)])
+def test_a_lockstep_run_holds_the_request_for_every_step_unless_told_to_save_power(tmp_path, power_save, realtime):
+    """A paced run (here `--realtime`) leaves the CPUs as they are: its worst wake-up is what counts."""
     scenario_path = tmp_path / "hold.yaml"
     scenario_path.write_text("name: hold\nduration_s: 0.5\nseed: 5\nend: disarm\n"
                              "reference: {type: hover, altitude_m: 1}\n")
@@ -63,12 +64,14 @@ def test_a_run_holds_the_request_for_every_step_unless_told_to_save_power(tmp_pa
 
     outcome = run_scenario(load_scenario(scenario_path),
                            RunOptions(runs_root=tmp_path / "runs", telemetry=None, gcs=[],
-                                      idle_cpus_poll=not power_save), [FrameSink(look)])
+                                      idle_cpus_poll=not power_save, realtime=realtime), [FrameSink(look)])
     assert outcome.exit_code == 0, outcome.reason
     assert len(seen) > 100  # every step of the flight was looked at
-    if power_save:
+    if power_save or realtime:
         assert not any(held for held, _ in seen)
-        assert outcome.metrics["timing"]["idle_cpus"] == "sleeping (--power-save)"
+        assert outcome.metrics["timing"]["idle_cpus"] == (
+            "sleeping (--power-save)" if power_save
+            else "sleeping (a paced run: its worst wake-up counts more than its typical one)")
     else:
         assert seen == [(True, 0)] * len(seen)
         assert outcome.metrics["timing"]["idle_cpus"].startswith("polling")

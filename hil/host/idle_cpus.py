@@ -7,6 +7,10 @@ step. A PM QoS request of 0 µs on /dev/cpu_dma_latency makes the kernel's cpuid
 instead (cyclictest makes the same request unless told `--laptop`). Polling runs only where nothing else is
 runnable, so it takes no CPU from other work; it costs power, which is what `hil run --power-save` is for. The
 kernel drops the request when its file is closed, however the process ends.
+
+Only lockstep runs hold it. To the host a polling vCPU is a busy one (its steal time rose with it here), and a
+paced run with it saw one step 100 ms late where cyclictest beside it saw no stall: a paced run's worst wake-up
+counts more than its typical one, and a lockstep run loses only wall time to a stall.
 """
 
 from __future__ import annotations
@@ -22,10 +26,11 @@ NO_WAKE_LATENCY_US = 0
 
 
 @contextmanager
-def idle_cpus_polling(wanted: bool, device: Path = CPU_DMA_LATENCY) -> Iterator[str]:
-    """Hold the request while the block runs (when `wanted`); yields what holds, for the run's timing figures."""
-    if not wanted:
-        yield "sleeping (--power-save)"
+def idle_cpus_polling(not_for: str | None = None, device: Path = CPU_DMA_LATENCY) -> Iterator[str]:
+    """Hold the request while the block runs, unless `not_for` says why not; yields what holds, for the run's timing
+    figures."""
+    if not_for is not None:
+        yield f"sleeping ({not_for})"
         return
     try:
         fd = os.open(device, os.O_WRONLY)

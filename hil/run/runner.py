@@ -73,7 +73,7 @@ class RunOptions:
     foxglove: str | None = None  # HOST:PORT of a live Foxglove WebSocket server; None: none
     speed_factor: float = 1.0  # a lockstep board paced at this many times the wall clock (an outside pilot's runs
     # are paced, at 1 by default: PX4's simulators' convention, PX4_SIM_SPEED_FACTOR)
-    idle_cpus_poll: bool = True  # idle CPUs kept polling while the run flies (False: `--power-save`)
+    idle_cpus_poll: bool = True  # idle CPUs kept polling while a lockstep run flies (False: `--power-save`)
 
 
 @dataclass
@@ -155,6 +155,13 @@ class _Run:
         return cls(flight, options, policy, paced, run_dir, disk, _RunReport(policy.autopilot))
 
     @property
+    def idle_cpus_not_for(self) -> str | None:
+        """Why the run leaves idle CPUs halting (`hil/host/idle_cpus.py`), None when it keeps them polling."""
+        if not self.options.idle_cpus_poll:
+            return "--power-save"
+        return "a paced run: its worst wake-up counts more than its typical one" if self.paced else None
+
+    @property
     def meta(self) -> dict[str, Any]:
         scenario = self.scenario
         return {"scenario": scenario.name, "seed": scenario.seed, "rate_hz": scenario.rate_hz,
@@ -195,7 +202,7 @@ class _Run:
         ready_to_step()
         stepper = Stepper(world, handle, pilot, [metrics, behaviour, *sinks], step_us(scenario), self.paced,
                           self.policy.ground_truth, progress, self.options.speed_factor)
-        with idle_cpus_polling(self.options.idle_cpus_poll) as idle_cpus:
+        with idle_cpus_polling(self.idle_cpus_not_for) as idle_cpus:
             result = stepper.run()
         report.reason, report.code, report.internal_error = result.reason, result.exit_code, result.internal_error
         report.final_t_us = stepper.t_us
