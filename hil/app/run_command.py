@@ -223,6 +223,6 @@ def _add_pacing_arguments(run: argparse.ArgumentParser) -> None:
                           "emulator the bench starts for its frames: faster with a core free for each and idle CPUs "
                           "sleeping (--power-save), slower otherwise (docs/performance.md)")
     run.add_argument("--power-save", action="store_true",
-                     help="let idle CPUs sleep while the run flies; by default the bench asks the kernel to keep them "
-                          "polling (/dev/cpu_dma_latency, as cyclictest does), which saves each wake-up of a lockstep "
-                          "step the CPU's exit from idle (docs/performance.md)")
+                     help="let idle CPUs sleep while a lockstep run flies; by default the bench asks the kernel to "
+                          "keep them polling (/dev/cpu_dma_latency, as cyclictest does), which saves each wake-up of a "
+                          "step the CPU's exit from idle. A paced run always leaves them (docs/architecture.md)")
