@@ -186,13 +186,6 @@ def read_hil_state_quaternion(msg: Any) -> GroundTruth:
     )
 
 
-def read_odometry(msg: Any) -> LocalTruth:
-    """The true state of an ODOMETRY `hil_frames.put_odometry` packed (velocity in MAV_FRAME_LOCAL_NED)."""
-    return LocalTruth(t_us=msg.time_usec, pos_ned=(msg.x, msg.y, msg.z), vel_ned=(msg.vx, msg.vy, msg.vz),
-                      q_wxyz=tuple(msg.q),
-                      rates_frd=(msg.rollspeed, msg.pitchspeed, msg.yawspeed))
-
-
 def hil_actuator_controls_fields(t_us: int, motors: tuple[float, ...], armed: bool, lockstep: bool,
                                  hil_enabled: bool = True) -> dict[str, Any]:
     """What a board sends: motors 0..1 in quad X order, all zero while disarmed."""

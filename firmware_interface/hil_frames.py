@@ -184,6 +184,19 @@ def put_odometry(buf: np.ndarray, at: int, seq: int, system_id: int, component_i
 
 
 @inline
+def odometry_row(frame: bytes, payload: np.ndarray, row: np.ndarray) -> None:
+    """An ODOMETRY frame as `put_odometry` packs it, into `row`: position, velocity (NED), attitude quaternion
+    (w, x, y, z) and body rates (FRD), each float32 value as it came. `payload`: room for ODOMETRY[2] bytes."""
+    payload_of(frame, payload)
+    for k in range(3):
+        row[k] = get_f32(payload, 8 + 4 * k)
+        row[3 + k] = get_f32(payload, 36 + 4 * k)
+        row[10 + k] = get_f32(payload, 48 + 4 * k)
+    for k in range(4):
+        row[6 + k] = get_f32(payload, 20 + 4 * k)
+
+
+@inline
 def put_hil_state_quaternion(buf: np.ndarray, at: int, seq: int, system_id: int, component_id: int, t_us: int,
                              q_wxyz: np.ndarray, rates_frd: np.ndarray, geodetic: np.ndarray, vel_ned: np.ndarray,
                              specific_force_frd: np.ndarray, airspeed_m_s: float) -> int:

@@ -17,6 +17,7 @@ from pymavlink.dialects.v20 import common
 from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames
 from firmware_interface.emulator.config import build_config
+from firmware_interface.emulator.truth import OdometryReader
 from hil.reports.plotting import state_index
 from hil.reports.rundata import load_flight
 from hil.scenario.loader import load_scenario
@@ -40,14 +41,21 @@ def test_odometry_carries_the_local_state_as_float32_with_velocity_in_ned():
     buffer = np.zeros(512, dtype=np.uint8)
     size = hil_frames.encode_odometry(buffer, 0, 255, 51, truth.t_us, *(np.array(v) for v in (
         truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd)))
-    message = common.MAVLink(None).parse_char(buffer[:size].tobytes())  # pymavlink checks the frame's checksum
+    frame = buffer[:size].tobytes()
+    message = common.MAVLink(None).parse_char(frame)  # pymavlink checks the frame's checksum
     assert (message.frame_id, message.child_frame_id) == (1, 1)  # MAV_FRAME_LOCAL_NED for pose and velocity
     assert message.estimator_type == 1 and math.isnan(message.pose_covariance[0])  # MAV_ESTIMATOR_TYPE_NAIVE
-    back = codec.read_odometry(message)
-    for sent, received in ((truth.pos_ned, back.pos_ned), (truth.vel_ned, back.vel_ned), (truth.q_wxyz, back.q_wxyz),
-                           (truth.rates_frd, back.rates_frd)):
-        assert np.array(received) == pytest.approx(np.array(sent, dtype=np.float32), abs=0)
-    assert abs(back.pos_ned[2] - truth.pos_ned[2]) < 4e-6  # 38.8 m at float32: 4 µm, not HIL_STATE's 1 mm
+    assert message.time_usec == truth.t_us
+    state = OdometryReader().state(frame)  # what the emulator flies on, read from the frame by compiled code
+    decoded = ((message.x, message.y, message.z), (message.vx, message.vy, message.vz),
+               (message.rollspeed, message.pitchspeed, message.yawspeed))
+    for sent, from_pymavlink, flown in zip((truth.pos_ned, truth.vel_ned, truth.rates_frd), decoded,
+                                           (state.pos_ned, state.vel_ned, state.rates_frd), strict=True):
+        assert np.array(from_pymavlink) == pytest.approx(np.array(sent, dtype=np.float32), abs=0)
+        assert flown.tolist() == list(from_pymavlink)
+    assert abs(state.pos_ned[2] - truth.pos_ned[2]) < 4e-6  # 38.8 m at float32: 4 µm, not HIL_STATE's 1 mm
+    # a 30 deg yaw, about z: q = (cos 15 deg, 0, 0, sin 15 deg), within float32 rounding
+    assert state.eta.tolist() == pytest.approx([0.0, 0.0, math.radians(30.0)], abs=1e-6)
 
 
 def test_the_controller_flies_on_the_plants_state_to_float32_precision(tmp_path):

@@ -60,6 +60,7 @@ from firmware_interface.emulator.offboard import OffboardInput
 from firmware_interface.emulator.params import ParameterServer
 from firmware_interface.emulator.px4_params import Px4Values
 from firmware_interface.emulator.telemetry import Telemetry
+from firmware_interface.emulator.truth import OdometryReader
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Link, LinkLost, Message
 from firmware_interface.px4_modes import FlightMode
@@ -89,6 +90,7 @@ class EmulatedBoard(Flight):
         self.estimator = Estimator(config.estimator, config.vehicle.g)
         self.params = Px4Values(config.params)
         self.truth: VehicleState | None = None  # the latest true state received (state_source truth)
+        self.odometry = OdometryReader()
         self.last_fix: codec.GpsFix | None = None
         self.last_fix_us = 0
         self.last_sensor_t_us: int | None = None
@@ -160,7 +162,7 @@ class EmulatedBoard(Flight):
             if msg.target_system == self.config.system_id:
                 self.offboard.receive(msg, self.now_us)
         elif kind == "ODOMETRY":
-            self.truth = self._truth_from_odometry(codec.read_odometry(msg))
+            self.truth = self.odometry.state(bytes(msg.get_msgbuf()))
         elif kind == "HIL_STATE_QUATERNION":
             self.truth = self._truth_from_ground_truth(codec.read_hil_state_quaternion(msg))
         elif kind in ("COMMAND_LONG", "COMMAND_INT"):
@@ -231,12 +233,6 @@ class EmulatedBoard(Flight):
         if not self.estimator.aligned:
             return None
         return VehicleState(estimate[0:3], estimate[3:6], estimate[10:13], estimate[13:16])
-
-    @staticmethod
-    def _truth_from_odometry(t: codec.LocalTruth) -> VehicleState:
-        """ODOMETRY's float32 values as they are: position in the sender's local NED frame."""
-        return VehicleState(np.array(t.pos_ned), np.array(t.vel_ned), quat_to_euler(np.array(t.q_wxyz)),
-                            np.array(t.rates_frd))
 
     def _truth_from_ground_truth(self, t: codec.GroundTruth) -> VehicleState:
         """HIL_STATE_QUATERNION about the first sample's lat/lon (the origin a first fix would set)."""

@@ -23,6 +23,7 @@ from firmware_interface.emulator.estimator import Estimator
 from firmware_interface.emulator.mixer import Mixer
 from firmware_interface.emulator.reply_frames import ReplyBuffers, pack_reply
 from firmware_interface.emulator.trajectory import quintic_sample
+from firmware_interface.emulator.truth import OdometryReader
 from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
 
 STEP_US = 4000
@@ -59,6 +60,7 @@ def exercise_flight_code(config: EmulatorConfig) -> None:
         pack_reply(reply.frames, reply.ends, reply.link, flags, STEP_US, 0, e.pos_ned, e.vel_ned, e.eta, e.rates_frd,
                    reply.origin, reply.home_d, reply.eta_cmd, reply.thrust, reply.debug, reply.debug_name, motors)
     quintic_sample(np.zeros((3, 6)), 0.0)  # the navigator's moves
+    OdometryReader().exercise()  # the true state (state_source truth)
 
 
 def main() -> int:
