@@ -71,11 +71,15 @@ class Helix:
     ramp_s: float = 2.0
 
     def sample(self, t: float) -> RefSample:
+        """In scalars, each product in the order the vector form (dpos·τ̇, ddpos·τ̇·τ̇ + dpos·τ̈) takes: sampled
+        every step of a 1 kHz flight before its sensor frame, five 3-vector operations cost ~4 µs."""
         tau, rate, rate_dot = time_warp(t, self.ramp_s)
-        w, r = self.angular_rate, self.radius
+        w, r, climb = self.angular_rate, self.radius, self.climb_rate
         c, s = math.cos(w * tau), math.sin(w * tau)
         n0, e0, d0 = self.center_ned
-        pos = np.array((n0 + r * c, e0 + r * s, d0 - self.climb_rate * tau))
-        dpos = np.array((-r * w * s, r * w * c, -self.climb_rate))  # d/dτ
-        ddpos = np.array((-r * w * w * c, -r * w * w * s, 0.0))
-        return RefSample(pos, dpos * rate, ddpos * rate * rate + dpos * rate_dot, self.yaw)
+        dn, de, dd = -r * w * s, r * w * c, -climb  # d/dτ
+        ddn, dde = -r * w * w * c, -r * w * w * s
+        return RefSample(np.array((n0 + r * c, e0 + r * s, d0 - climb * tau)),
+                         np.array((dn * rate, de * rate, dd * rate)),
+                         np.array((ddn * rate * rate + dn * rate_dot, dde * rate * rate + de * rate_dot,
+                                   0.0 * rate * rate + dd * rate_dot)), self.yaw)
