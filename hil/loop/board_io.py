@@ -10,11 +10,18 @@ from firmware_interface.geodesy import LocalFrame
 from firmware_interface.link import Message
 from hil.boards.handle import BoardHandle
 from hil.boards.target import GroundTruthUse
+from hil.loop.senders import Periodic
 from hil.loop.step_frames import ODOMETRY_FLAG, SETPOINT_FLAG, StepFrames, pack_only, sense_and_pack, sense_only
 from hil.loop.timing import LoopTiming
 from hil.scenario.reference import RefSample
 from hil.sensors import SensorSuite
 from plant_fmu.state import PlantState
+
+# The offboard setpoint's period on PX4 SITL's command link: 50 Hz, what an offboard companion streams (MAVSDK
+# resends its last setpoint at 20 Hz; PX4 asks for more than 2 Hz). Each one costs PX4 a UDP receive and its
+# mavlink receiver's handling, and the bench a send: sent every 250 Hz step, a --px4 hover ran ~6 % slower
+# (docs/performance.md, issue 36's fourteenth stop).
+SITL_SETPOINT_PERIOD_US = 20_000
 
 
 class BoardIO:
@@ -125,16 +132,22 @@ class BoardIO:
 class SplitBoardIO(BoardIO):
     """PX4 SITL: its commands, ACKs and states come on a UDP link its own thread serves, so no step of ours is the
     one they belong to. The setpoint goes there after the sensor frame (it never had a defined order against it),
-    and the next step is decided while PX4 computes this one: PX4 waits for nothing but its sensors."""
+    at an offboard companion's rate (`SITL_SETPOINT_PERIOD_US`), and the next step is decided while PX4 computes
+    this one: PX4 waits for nothing but its sensors."""
 
     decides_early = True
     setpoint_in_frame = False
+
+    def __init__(self, board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,
+                 timing: LoopTiming, sensors: SensorSuite) -> None:
+        super().__init__(board, truth_use, frame, steady_wind_ned, timing, sensors)
+        self.setpoints = Periodic(SITL_SETPOINT_PERIOD_US)
 
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
                      truth: PlantState) -> None:
         super()._after_frame(t_us, reference, offset_ned, truth)
         commands = self.board.command_session
-        if reference is not None:
+        if reference is not None and self.setpoints.due(t_us):
             self._send_setpoint(t_us, reference, offset_ned)
         commands.poll(0.0)
         commands.service(t_us * 1e-6 if self.board.hil_session.lockstep else None)
