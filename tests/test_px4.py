@@ -46,7 +46,7 @@ pytestmark = [pytest.mark.px4, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parent.parent
 BENCH_COMPONENT = 51  # firmware_interface.board.BENCH_COMPONENT_ID: PX4 acks our commands to it
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # PX4 vehicle_status.arming_state
-NAV_STATE_OFFBOARD = 14  # PX4 vehicle_status.nav_state
+NAV_STATE_OFFBOARD, NAV_STATE_AUTO_LAND = 14, 18  # PX4 vehicle_status.nav_state
 
 
 def short_hover(folder: Path, quick_landing: bool = False) -> Path:
@@ -155,6 +155,24 @@ def test_sitl_flies_the_scenario_from_arming_to_disarm(sitl, tmp_path, scenario)
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert set(metrics["board_estimate_error_m"]) == {"x", "y", "z"}
     assert_px4_stopped_the_streams_the_bench_does_not_read(run_dir, metrics)
+    assert_setpoints_streamed_at_a_companions_rate_and_px4_stayed_in_offboard(ulog, run_dir)
+
+
+def assert_setpoints_streamed_at_a_companions_rate_and_px4_stayed_in_offboard(ulog: ULog, run_dir: Path) -> None:
+    """The bench's SET_POSITION_TARGET_LOCAL_NED on SITL's command link, as the link's tlog holds them: one every
+    20 ms of the bench's clock (their own time_boot_ms), never sooner after the second (the schedule keeps to
+    multiples of 20 ms; the stream starts at whichever step it starts). And PX4, which leaves OFFBOARD for a
+    failsafe when the stream lapses (COM_OF_LOSS_T), left it only for the AUTO.LAND the bench asked for."""
+    boot_ms = []
+    tlog = mavutil.mavlink_connection(str(run_dir / "link.tlog"))
+    while (msg := tlog.recv_match(type="SET_POSITION_TARGET_LOCAL_NED")) is not None:
+        boot_ms.append(msg.time_boot_ms)
+    gaps = np.diff(boot_ms)[1:]
+    assert len(boot_ms) > 500 and gaps.min() >= 20 and np.median(gaps) == 20, (len(boot_ms), np.unique(gaps))
+    status = ulog.get_dataset("vehicle_status").data
+    offboard = first_after(status["timestamp"], status["nav_state"], NAV_STATE_OFFBOARD, 0)
+    after = [int(v) for t, v in zip(status["timestamp"], status["nav_state"], strict=True) if t >= offboard]
+    assert next(v for v in after if v != NAV_STATE_OFFBOARD) == NAV_STATE_AUTO_LAND, after
 
 
 def assert_px4_logged_the_true_rates_at_their_own_time(ulog: ULog, run_dir: Path) -> None:
