@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 from pymavlink import mavutil
 
+from hil.boards.gcs_relay import DATAGRAM_BYTES, RELAY_PERIOD_S, GcsBridge, datagrams
+
 pytestmark = pytest.mark.e2e  # drives the bench's processes (hil, the emulator) end to end
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -34,6 +36,24 @@ class Listener(threading.Thread):
             msg = self.link.recv_match(blocking=True, timeout=0.2)
             if msg is not None:
                 self.counts[msg.get_type()] += 1
+
+
+def test_the_relays_frames_go_whole_and_in_order_in_datagrams_that_fit_an_ethernet_mtu():
+    frames = [bytes([k]) * n for k, n in enumerate([280, 280, 280, 280, 280, 100, 1472, 12, 300])]
+    packed = datagrams(frames)
+    assert b"".join(packed) == b"".join(frames)
+    # by hand: five 280-byte frames fill 1400 bytes, the 100-byte one would make 1500 > 1472 (1500 less IP's 20
+    # and UDP's 8); then 100 alone (1472 more would not fit), 1472 alone, and 12 + 300
+    assert DATAGRAM_BYTES == 1500 - 20 - 8
+    assert [len(d) for d in packed] == [1400, 100, 1472, 312]
+    assert datagrams([]) == []
+
+
+def test_a_relay_pass_is_due_once_per_period_of_the_wall_clock():
+    times = iter([0.0, 0.4e-3, 1.0e-3, 1.5e-3, 2.2e-3, 10e-3])
+    bridge = GcsBridge([], clock=lambda: next(times))
+    assert RELAY_PERIOD_S == 1e-3
+    assert [bridge.due() for _ in range(6)] == [True, False, True, False, True, True]
 
 
 def test_a_gcs_receives_the_emulators_traffic_but_no_hil_frames(tmp_path):

@@ -107,10 +107,12 @@ class BoardIO:
                                                  reference.acc_ned, reference.yaw)
 
     def _relay_gcs(self) -> None:
-        """Board -> GCS for what came with the last reply; GCS -> board after this step's HIL frames (neither way in
-        a ground-station loss)."""
+        """When a relay pass is due (`GcsBridge.due`): board -> GCS for what came with the replies since the last
+        pass; GCS -> board after this step's HIL frames (neither way in a ground-station loss)."""
         gcs, board = self.board.gcs, self.board
         assert gcs is not None
+        if not gcs.due():
+            return
         for session in board.sessions:
             frames = session.take_relayed()
             if frames and not self.ground_station_lost:
