@@ -3,10 +3,15 @@ figures only for a paced run."""
 
 from __future__ import annotations
 
+import os
+import threading
 import time
 
 import pytest
+from pymavlink.dialects.v20 import common
 
+from firmware_interface.link import Link
+from firmware_interface.link.transports import FdTransport
 from hil.loop.timing import LoopTiming
 
 
@@ -46,3 +51,26 @@ def test_pacing_figures_appear_only_for_a_paced_run():
     figures = timing.figures(paced=True)
     assert figures["realtime_factor"] == 2.0
     assert figures["period_jitter_us"]["max"] == pytest.approx(500, rel=0.02)  # 4.5 ms vs 4 ms
+
+
+def test_a_lap_charges_the_time_a_real_read_waited_to_its_own_part():
+    """A link reading a pipe whose writer sends a HEARTBEAT 30 ms after the step began: the time blocked in the
+    read goes to the waited part, the rest of the lap (5 ms of work before the wait) to the lap's part, and the
+    two add up to the lap."""
+    read_fd, write_fd = os.pipe()
+    frame = bytes(common.MAVLink_heartbeat_message(2, 12, 0, 0, 4, 3).pack(common.MAVLink(None, 1, 1)))
+    link = Link(FdTransport(read_fd, "pipe"))
+    timer = LoopTiming(breakdown_s={"reply": 0.0, "wait": 0.0})
+    writer = threading.Timer(0.03, os.write, (write_fd, frame))
+    started = timer.start()
+    writer.start()
+    time.sleep(0.005)
+    waited_before = link.waited_s
+    messages = link.receive(1.0)
+    end = timer.lap("reply", "wait", link.waited_s - waited_before)
+    writer.join()
+    link.close()
+    os.close(write_fd)
+    assert [m.get_type() for m in messages] == ["HEARTBEAT"]
+    assert timer.breakdown_s["wait"] >= 0.02 and timer.breakdown_s["reply"] >= 0.005
+    assert timer.breakdown_s["wait"] + timer.breakdown_s["reply"] == pytest.approx(end - started, abs=1e-6)

@@ -54,6 +54,7 @@ class Link:
         self.passthrough: list[bytes] = []  # valid frames kept whole: not read by the user, or unknown to pymavlink
         self.passed_through = 0
         self.bytes_in = 0
+        self.waited_s = 0.0  # wall time in reads that waited for bytes (a timeout > 0): the user's wait for its peer
         self.bytes_out = 0
         self.frames_out = 0
         self._closed = False
@@ -131,7 +132,12 @@ class Link:
         deadline = time.monotonic() + timeout_s
         while True:
             remaining = deadline - time.monotonic()
-            data = self.transport.read(max(remaining, 0.0))
+            if remaining > 0:
+                reading = time.perf_counter()
+                data = self.transport.read(remaining)
+                self.waited_s += time.perf_counter() - reading
+            else:
+                data = self.transport.read(0.0)
             self.bytes_in += len(data)
             if self.faults is not None:
                 data = self.faults.incoming_bytes(data)

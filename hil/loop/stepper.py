@@ -68,8 +68,7 @@ class Stepper:
                  speed_factor: float = 1.0) -> None:
         self.world, self.board, self.pilot, self.sinks = world, board, pilot, sinks
         self.dt_us, self.dt = dt_us, dt_us / 1e6  # the bench's clock is integer µs; the plant's step follows it
-        self.paced = paced
-        self.progress = progress
+        self.paced, self.progress = paced, progress
         self.timing = LoopTiming()
         self.io = board_io(board, truth_use, world.local_frame, world.environment.steady, self.timing, world.sensors)
         self.pacer = Pacer(self.dt / speed_factor, self.timing)  # paced: a step every dt / speed_factor of wall time
@@ -202,12 +201,13 @@ class Stepper:
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")
         early = self._decide() if self.io.decides_early else None
+        waited_s = session.link.waited_s
         self._take_reply(session.await_reply())
-        round_trip = timing.lap("wait_for_board") - sent if session.lockstep else None
+        round_trip = timing.lap("board_reply", "wait_for_board", session.link.waited_s - waited_s) - sent
         self._pending = StepFrame(self.t_us, mission_t, decided.phase, truth, decided.reference, readings, gps,
                                   self.motors, self.armed, env, board_offset_ned=decided.board_offset_ned,
-                                  step_wall_s=time.perf_counter() - timing.started, round_trip_s=round_trip,
-                                  sent=others)
+                                  step_wall_s=time.perf_counter() - timing.started,
+                                  round_trip_s=round_trip if session.lockstep else None, sent=others)
         self._pending_inbox = self.io.take_inbox()
         self._unseen += self._pending_inbox
         self._board_texts(self._pending_inbox)

@@ -11,8 +11,11 @@ from typing import Any
 from hil.loop.streaming_stats import LogHistogram
 
 LATE_DETAIL = 20  # late steps explained in metrics.json (all are counted)
+# wait_for_board: blocked in the link's read until the reply's bytes came (and that read); board_reply: the reply
+# handled once there (its frames found, decoded, taken by the session). Apart, they tell whether a lockstep step
+# waits for the board or the board's reply waits for the bench.
 BREAKDOWN_PARTS = ("phase_and_environment", "plant", "sensors_and_send", "command_link_and_relay",
-                   "previous_step_messages_and_sinks", "wait_for_board", "frame")
+                   "previous_step_messages_and_sinks", "wait_for_board", "board_reply", "frame")
 
 
 @dataclass
@@ -39,15 +42,20 @@ class LoopTiming:
         self.longest = ("", 0.0)
         return self.started
 
-    def lap(self, part: str) -> float:
-        """Charge the wall time since the previous lap (or `start`) to `part`."""
+    def lap(self, part: str, waited_part: str = "", waited_s: float = 0.0) -> float:
+        """Charge the wall time since the previous lap (or `start`) to `part`, less `waited_s` of it charged to
+        `waited_part` (the time the lap spent blocked in a read)."""
         now = time.perf_counter()
-        elapsed = now - self._last
-        self.breakdown_s[part] += elapsed
-        if elapsed > self.longest[1]:
-            self.longest = (part, elapsed)
+        if waited_part:
+            self._charge(waited_part, waited_s)
+        self._charge(part, now - self._last - waited_s)
         self._last = now
         return now
+
+    def _charge(self, part: str, seconds: float) -> None:
+        self.breakdown_s[part] += seconds
+        if seconds > self.longest[1]:
+            self.longest = (part, seconds)
 
     def add_step(self, step_wall_s: float, round_trip_s: float | None) -> None:
         self.steps += 1
