@@ -232,7 +232,7 @@ def print_breakdowns(rounds: list[dict[str, Any]], floor_us: float, python_us: f
         row = [statistics.median(r["breakdown"][n][part] for r in rounds) for n in names]
         print(f"  {part:<24}" + "".join(f"{v:>14.1f}" for v in row))
     cpu = {n: statistics.median(r["board_cpu"][n] for r in rounds) for n in ("reference", *names)}
-    print("the board's own CPU per step (us, all its threads; it computes this much of wait_for_board):")
+    print("the board's own CPU per step (us, all its threads; wait_for_board above is what a step waited for it):")
     print(f"  {'board CPU':<24}" + "".join(f"{cpu[n]:>14.1f}" for n in names)
           + f"   (PX4 in the reference: {cpu['reference']:.1f})")
 
