@@ -6,7 +6,7 @@ Frames are relayed whole, as received (system ids kept); GCS frames reach the bo
 own frames of a step, in a write of their own, so they never split or reorder the HIL exchange.
 
 A relay pass runs at most every `RELAY_PERIOD_S` of wall time, not every step: a lockstep run steps every ~0.2 ms,
-and a send and a look per step on each endpoint cost the step ~10 us (a tenth of the bench's own part). A ground
+and a send and a look per step on each endpoint cost a gust step ~15 us (a tenth of the bench's own part). A ground
 station sees the board's frames at most that much later; a paced run's steps are longer than it, so there every
 step relays as before. The frames of a pass go in as few datagrams as fit an Ethernet MTU (MAVLink over UDP allows
 several frames in one; QGroundControl, MAVSDK and pymavlink read them all).
