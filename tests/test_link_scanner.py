@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import random
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common
 
 from firmware_interface.link import FrameScanner, Reject
 from firmware_interface.link.dialect import SPECS
+from firmware_interface.link.frame_scan import FRAMES_PER_CALL
 from tests.support.noisy_stream import clean_frame, make_noisy_stream
 
 
@@ -84,6 +86,10 @@ def test_v1_frames_and_signed_v2_frames_are_accepted():
     scanner = FrameScanner()
     assert scanner.feed(v1 + signed + plain, 0.0) == [v1, signed, plain]
     assert sum(scanner.counts.values()) == 0
+    for read, frames in ((signed + plain, [signed, plain]), (plain + signed + v1, [plain, signed, v1])):
+        scanner = FrameScanner()  # reads that begin with a whole frame (the compiled path's), signed ones among them
+        assert scanner.feed(read, 0.0) == frames
+        assert sum(scanner.counts.values()) == 0
 
 
 def test_length_above_full_payload_and_zero_length_are_rejected():
@@ -133,3 +139,41 @@ def test_a_slow_serial_line_byte_by_byte_loses_no_intact_frame():
         out += scanner.feed(bytes([byte]), now)
     assert out == frames and scanner.counts["timeout"] == 0
     assert partial_timeout_for(None) == 0.02 and partial_timeout_for(921_600) == 0.02
+
+
+@pytest.mark.parametrize("seed", [7, 11, 23])
+def test_the_compiled_clean_frame_path_gives_what_the_general_path_alone_gives(seed):
+    """Reads of a noisy stream cut after a good frame (so that the next read begins with one) or anywhere (a
+    frame's tail, garbage, a bad frame), fed to a scanner and to one whose every read goes the general way: the
+    same frames, the same counts of every rejection, the same bytes left pending."""
+    stream = make_noisy_stream(3000, seed=seed)
+    rng = random.Random(seed)
+    frame_ends, at = [], 0
+    for frame in stream.frames:
+        at = stream.data.index(frame, at) + len(frame)
+        frame_ends.append(at)
+    cuts = sorted({*rng.sample(frame_ends, len(frame_ends) // 3), *rng.sample(range(len(stream.data)), 500)})
+    fast, general = FrameScanner(), FrameScanner()
+    general.feed = general._scan  # type: ignore[method-assign]  # the general path only
+    out_fast: list[bytes] = []
+    out_general: list[bytes] = []
+    for start, end in zip([0, *cuts], [*cuts, len(stream.data)], strict=True):
+        out_fast += fast.feed(stream.data[start:end], start * 1e-5)
+        out_general += general.feed(stream.data[start:end], start * 1e-5)
+    assert out_fast == out_general == stream.frames
+    assert fast.counts == general.counts and fast.frames_accepted == general.frames_accepted
+    assert fast.pending_bytes == general.pending_bytes
+
+
+def test_a_read_of_whole_frames_comes_out_whole_and_in_order_beyond_one_calls_ends():
+    """More whole frames in one read than `clean_frames` reports at a time, then the first half of a frame: every
+    whole frame out, in order, each its own bytes; the half kept for the next read, which completes it."""
+    rng = random.Random(2)
+    mav = common.MAVLink(None)
+    frames = [clean_frame(rng, mav) for _ in range(FRAMES_PER_CALL + 10)]
+    last = clean_frame(rng, mav)
+    scanner = FrameScanner()
+    assert scanner.feed(b"".join(frames) + last[:5], 0.0) == frames
+    assert scanner.pending_bytes == 5 and scanner.frames_accepted == len(frames)
+    assert scanner.feed(last[5:], 0.0) == [last]
+    assert scanner.feed(frames[0], 0.0) == [frames[0]]  # a read of exactly one frame is that frame

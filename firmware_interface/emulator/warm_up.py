@@ -25,6 +25,7 @@ from firmware_interface.emulator.reply_frames import ReplyBuffers, pack_reply
 from firmware_interface.emulator.trajectory import quintic_sample
 from firmware_interface.emulator.truth import OdometryReader
 from firmware_interface.hil_codec import Baro, GpsFix, SensorReadings
+from firmware_interface.link import frame_scan
 
 STEP_US = 4000
 
@@ -33,7 +34,9 @@ def compile_flight_code(config: EmulatorConfig) -> None:
     """Every compiled function the board will call, called once with the types a flight gives it; then no more
     compiling."""
     exercise_flight_code(config)
+    frame_scan.warm_up()  # the bench's frames are read through it
     FLIGHT_CODE.freeze()
+    frame_scan.FRAME_SCAN.freeze()
 
 
 def exercise_flight_code(config: EmulatorConfig) -> None:

@@ -84,7 +84,7 @@ def payload_of(frame: bytes, payload: np.ndarray) -> None:
 
 
 @inline
-def crc_x25(buf: np.ndarray, start: int, end: int, crc_extra: int) -> int:
+def crc_x25(buf: np.ndarray | bytes, start: int, end: int, crc_extra: int) -> int:
     """MAVLink's X.25 checksum of buf[start:end] followed by the CRC_EXTRA byte."""
     crc = 0xFFFF
     for k in range(start, end + 1):

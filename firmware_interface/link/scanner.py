@@ -14,8 +14,11 @@ from collections import Counter
 from enum import StrEnum
 
 import fastcrc
+import numpy as np
 
 from firmware_interface.link.dialect import SPECS
+from firmware_interface.link.frame_packing import OVERHEAD
+from firmware_interface.link.frame_scan import CRC_EXTRA, FRAMES_PER_CALL, FULL_PAYLOAD, clean_frames
 
 STX_V2, STX_V1 = 0xFD, 0xFE
 V2_HEADER, V1_HEADER, CRC_LEN, SIGNATURE_LEN = 10, 6, 2, 13
@@ -61,9 +64,32 @@ class FrameScanner:
         self.frames_accepted = 0
         self._buf = bytearray()
         self._partial_since: float | None = None
+        self._ends = np.zeros(FRAMES_PER_CALL, dtype=np.int64)  # where `clean_frames` found each frame's end
 
     def feed(self, data: bytes, now_s: float) -> list[bytes]:
-        """Add bytes received at `now_s` (monotonic seconds); return the frames now complete."""
+        """Add bytes received at `now_s` (monotonic seconds); return the frames now complete. With nothing held
+        from an earlier read, the whole frames the read starts with are taken by compiled code (`frame_scan`);
+        the rest, if any, goes the general way."""
+        if self._buf or len(data) < OVERHEAD:
+            return self._scan(data, now_s)
+        data = bytes(data)
+        ends: list[int] = []
+        count = FRAMES_PER_CALL
+        while count == FRAMES_PER_CALL:
+            count = clean_frames(data, ends[-1] if ends else 0, FULL_PAYLOAD, CRC_EXTRA, self._ends)
+            ends += self._ends[:count].tolist()
+        if not ends:
+            return self._scan(data, now_s)
+        self.frames_accepted += len(ends)
+        self._partial_since = None
+        whole = ends[-1] == len(data)
+        if whole and len(ends) == 1:  # the lockstep reply: one frame, the whole read
+            return [data]
+        frames = [data[start:end] for start, end in zip([0, *ends], ends, strict=False)]
+        return frames if whole else frames + self._scan(data[ends[-1]:], now_s)
+
+    def _scan(self, data: bytes, now_s: float) -> list[bytes]:
+        """The general way: from any byte, every start byte checked, rejected bytes counted by reason."""
         buf = self._buf
         buf += data
         frames: list[bytes] = []

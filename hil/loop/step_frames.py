@@ -23,7 +23,7 @@ from firmware_interface.hil_frames import (
     put_odometry,
     put_setpoint,
 )
-from firmware_interface.link import frame_packing
+from firmware_interface.link import frame_packing, frame_scan
 from hil.sensors import Home, SensorsConfig, SensorSuite, suite
 from hil.sensors.suite import suite_sense
 
@@ -111,8 +111,10 @@ def warm_up() -> None:
                            (hil_frames.encode_hil_state_quaternion, (0, np.zeros(4), vector, vector, vector, vector,
                                                                      0.0))):
         encode(step.frames, 0, 1, 1, *fields)
+    frame_scan.warm_up()  # the board's replies are read through it
     STEP.freeze()
     hil_frames.FRAMES.freeze()
+    frame_scan.FRAME_SCAN.freeze()
 
 
 if __name__ == "__main__":  # `make fmu`: compiled into the cache at set-up, so that no run pays for it
