@@ -32,6 +32,7 @@ from firmware_interface.board_requests import (
     float_as_int32,
     int32_as_float,
 )
+from firmware_interface.board_starvation import CpuStarvation
 from firmware_interface.board_watchdog import RUNNABLE_RECHECK_S, LinkWatchdog
 from firmware_interface.link import Link, Message
 from firmware_interface.link.faults import LinkFaults
@@ -115,6 +116,7 @@ class BoardSession:
         self.streams_stopped: list[int] = []  # the message ids asked to stop, in order
         self.lockstep = False  # true from the first HIL_ACTUATOR_CONTROLS on (SITL / emulator)
         self.wait_for_replies = True  # False: never wait for a reply, as with a real board (injected link faults)
+        self.starvation: CpuStarvation | None = None  # on its own clock, a board process the bench runs here
         self.actuators: codec.ActuatorOutputs | None = None
         self._awaited_t_us: int | None = None  # lockstep: the sensor step whose reply we wait for
         self._truth_ahead: bytes | None = None  # a HIL_STATE_QUATERNION frame for the next step's write
@@ -326,12 +328,15 @@ class BoardSession:
         replies to earlier steps are skipped. Before lockstep starts (free-run) each step waits at most
         `free_run_wait_s` for a first reply, so no backlog of replies builds up; once a reply has started lockstep,
         an earlier step's too, the step's own is waited for as long as the watchdog allows (on a loaded machine
-        the first replies can lag by more than the free-run wait). A real board (HITL) is never waited
-        for: it runs on its own clock. Raises BoardError when the watchdog expires (`LinkWatchdog.check`).
+        the first replies can lag by more than the free-run wait). A board on its own clock is never waited
+        for, but for a process of this machine while the machine starves it of CPU (`board_starvation`). Raises
+        BoardError when the watchdog expires (`LinkWatchdog.check`).
         """
         if not self.waits_for_replies:
             self._awaited_t_us = None
             self.poll(0.0)
+            if self.starvation is not None:
+                self.starvation.wait_out(self.poll)
             self.check_watchdog()
             return self.actuators
         started = self.clock()

@@ -20,6 +20,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import threading
 from collections.abc import Callable, Iterable
 from importlib.metadata import version
 from pathlib import Path
@@ -28,6 +29,7 @@ from typing import Any, TypeVar, cast
 
 F = TypeVar("F", bound=Callable[..., Any])
 _INLINE: list[Callable[..., Any]] = []  # every group's `inline` functions, known to numba before any compile
+_CACHE_DIR_SETTING = threading.Lock()  # held while numba.config.CACHE_DIR names one group's directory
 
 
 @functools.cache
@@ -99,10 +101,14 @@ class _Entry:
         return dispatcher(*args)
 
     def _make(self) -> Any:
+        """numba's cache directory is one global setting, read twice as a dispatcher picks its cache: set for this
+        group and put back under a lock, or another thread's put-back between the two reads left the dispatcher's
+        cache in the working directory (a `loop_<hash>` directory in the checkout, and a compile every run)."""
         numba = _numba()
-        previous = numba.config.CACHE_DIR  # the setting is global: other groups keep their own directory
-        numba.config.CACHE_DIR = str(self.group.cache_dir)
-        try:
-            return numba.njit(cache=True)(self.py_func)
-        finally:
-            numba.config.CACHE_DIR = previous
+        with _CACHE_DIR_SETTING:
+            previous = numba.config.CACHE_DIR
+            numba.config.CACHE_DIR = str(self.group.cache_dir)
+            try:
+                return numba.njit(cache=True)(self.py_func)
+            finally:
+                numba.config.CACHE_DIR = previous

@@ -181,7 +181,10 @@ def test_a_paced_step_that_starts_late_because_its_sleep_overslept_counts_as_lat
     late = [(d["t_s"], d["behind_ms"]) for d in timing["late_steps_detail"]]
     assert any(8.5 <= ms < 12.0 for _, ms in late) and any(29.5 <= ms < 35.0 for _, ms in late), late
     t_slip = next(t for t, ms in late if 29.5 <= ms < 35.0)
-    assert [t for t, _ in late if t_slip < t <= t_slip + 0.05] == []  # no burst to catch up after the slip
+    # no burst to catch up after the slip: one would start the next steps ~26, 22, 18 ms behind (30 ms less a
+    # period each); a step late by a stall of the machine's own (cyclictest's worst here 4-13 ms; one 3 ms after
+    # the slip in a clean CI run) is no burst
+    assert all(ms < 15.0 for t, ms in late if t_slip < t <= t_slip + 0.05), late
     assert timing["slips"]["count"] >= 1, late
 
 

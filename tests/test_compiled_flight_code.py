@@ -9,6 +9,8 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -99,3 +101,44 @@ def test_the_flight_code_group_names_the_emulator_and_every_module_it_compiles_i
     sources = {path.name for path in compiled.FLIGHT_CODE.sources}
     assert Path(compiled.FLIGHT_CODE.sources[0]) == Path(compiled.__file__).parent
     assert {"frame_packing.py", "compiled_code.py"} <= sources
+
+
+def test_groups_made_on_two_threads_keep_their_own_cache_directories(tmp_path, monkeypatch):
+    """numba reads its cache directory setting twice while a dispatcher picks its cache; a group made on another
+    thread (the bench loads its step's code beside the board's start) must not put the setting back in between.
+    The interleaving that left a dispatcher's cache in the working directory, forced: the first group's set-up
+    pauses inside numba until the second's has begun (or 0.5 s, when a lock keeps it out), then ends first."""
+    import numba
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    first_inside, second_inside = threading.Event(), threading.Event()
+    seen: dict[str, str] = {}
+
+    def njit_seeing_the_setting(cache: bool):  # what numba reads while a dispatcher picks its cache
+        def make(function):
+            if function.__name__ == "first":
+                first_inside.set()
+                second_inside.wait(0.5)
+            else:
+                second_inside.set()
+                time.sleep(0.1)  # the first group's set-up ends meanwhile, without a lock
+            seen[function.__name__] = numba.config.CACHE_DIR
+            return function
+        return make
+
+    monkeypatch.setattr(numba, "njit", njit_seeing_the_setting)
+
+    def first():
+        return 1
+
+    def second():
+        return 2
+
+    entries = {f.__name__: CompiledCode(f.__name__, (tmp_path,)).compiled(f) for f in (first, second)}
+    made = threading.Thread(target=entries["first"])
+    made.start()
+    assert first_inside.wait(5.0)
+    entries["second"]()
+    made.join(5.0)
+    for name, entry in entries.items():
+        assert seen[name] == str(entry.group.cache_dir)

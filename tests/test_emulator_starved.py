@@ -1,6 +1,7 @@
 """An emulator starved of its CPU mid-flight (a real-time process spinning on its core: the kernel leaves ordinary
 work 5 % of each second) is silent for most of a second; in lockstep that is the machine's delay, not the board's,
-so the flight goes on and records the same flight as unstarved, bit for bit."""
+so the flight goes on and records the same flight as unstarved, bit for bit. On its own clock (behind link faults,
+paced) the plant would fly on without it: the bench waits while it waits for a CPU (`board_starvation`)."""
 
 from __future__ import annotations
 
@@ -18,6 +19,9 @@ import pytest
 
 from hil.boards.emulator import EmulatorTarget
 from hil.host.process_cpu import scheduler_state
+from hil.host.rt_priority import FIFO_PRIORITY
+from hil.loop.frame import StepFrame
+from hil.loop.sink import FrameSink
 from hil.run.runner import RunOptions, run_scenario
 from hil.scenario.loader import load_scenario
 from tests.support.emulator_process import EmulatorWithItsProcess, may_raise_priority
@@ -25,33 +29,48 @@ from tests.support.recording_digest import simulated_digest
 
 WATCHDOG_S = 0.5  # under the ~0.95 s the kernel's real-time throttling leaves a starved process silent
 STARVE_AFTER_S, STARVE_FOR_S = 0.8, 1.0  # from the emulator's first heartbeat: its flight is under way by then
-SPIN = "import os, sys\nos.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(5))\nsys.stdout.write('x')\n" \
-       "sys.stdout.flush()\nwhile True: pass"
+REALTIME = "import os, sys, time\nos.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param({}))\n" \
+           "sys.stdout.write('x')\nsys.stdout.flush()\n"
+SPIN = REALTIME + "while True: pass"
+# the same spinner leaving its core for 0.1 ms every 4 ms (thin slices: the starved process runs between any two looks)
+SLICER = REALTIME + "while True:\n    end = time.monotonic() + 0.004\n    while time.monotonic() < end: pass\n" \
+                    "    time.sleep(0.0001)"
 
 
 @dataclass
 class StarveMidFlight:
-    """The emulator pinned for `STARVE_FOR_S` to one CPU on which a SCHED_FIFO process spins, `STARVE_AFTER_S` after
-    its first heartbeat; its scheduler states sampled meanwhile."""
+    """The emulator pinned for `for_s` to one CPU on which a SCHED_FIFO process spins: `after_s` after its first
+    heartbeat, or when `start` is called (`after_s` None); its scheduler states sampled meanwhile."""
 
+    for_s: float
+    after_s: float | None = None
+    priority: int = 5  # the spinner's: above a lockstep emulator's ordinary scheduling, not a paced one's FIFO
+    spinner: str = SPIN
+    pid: int = 0
     states: Counter[str | None] = field(default_factory=Counter)
     threads: list[threading.Thread] = field(default_factory=list)
 
     def __call__(self, pid: int) -> None:
-        thread = threading.Thread(target=self._starve, args=(pid,), daemon=True)
+        self.pid = pid
+        if self.after_s is not None:
+            self.start(self.after_s)
+
+    def start(self, after_s: float = 0.0) -> None:
+        thread = threading.Thread(target=self._starve, args=(after_s,), daemon=True)
         self.threads.append(thread)
         thread.start()
 
-    def _starve(self, pid: int) -> None:
-        time.sleep(STARVE_AFTER_S)
+    def _starve(self, after_s: float) -> None:
+        time.sleep(after_s)
+        pid = self.pid
         cpus = os.sched_getaffinity(pid)
         cpu = max(cpus)
-        spinner = subprocess.Popen([sys.executable, "-c", SPIN], stdout=subprocess.PIPE,
+        spinner = subprocess.Popen([sys.executable, "-c", self.spinner.format(self.priority)], stdout=subprocess.PIPE,
                                    preexec_fn=lambda: os.sched_setaffinity(0, {cpu}))  # noqa: PLW1509 - a test's child
         try:
             assert spinner.stdout is not None and spinner.stdout.read(1) == b"x"  # real-time and spinning now
             os.sched_setaffinity(pid, {cpu})
-            end = time.monotonic() + STARVE_FOR_S
+            end = time.monotonic() + self.for_s
             while time.monotonic() < end:
                 self.states[scheduler_state(pid)] += 1
                 time.sleep(0.02)
@@ -70,7 +89,7 @@ def test_an_emulator_starved_of_its_cpu_mid_flight_is_waited_for_and_records_the
     scenario_path.write_text("name: hold\nduration_s: 30\nseed: 5\nend: disarm\n"
                              "reference: {type: hover, altitude_m: 2}\n")
     scenario = load_scenario(scenario_path)
-    starved = StarveMidFlight()
+    starved = StarveMidFlight(STARVE_FOR_S, STARVE_AFTER_S)
     outcomes = {}
     for label, board in (("unstarved", EmulatorTarget()), ("starved", EmulatorWithItsProcess(starved))):
         outcomes[label] = run_scenario(scenario, RunOptions(board=board, runs_root=tmp_path / label, telemetry=None,
@@ -82,3 +101,34 @@ def test_an_emulator_starved_of_its_cpu_mid_flight_is_waited_for_and_records_the
     timing = json.loads((outcomes["starved"].run_dir / "metrics.json").read_text())["timing"]
     assert timing["step_wall_us"]["max"] > 1.2 * WATCHDOG_S * 1e6  # a silence over the watchdog was waited out
     assert simulated_digest(outcomes["starved"].run_dir) == simulated_digest(outcomes["unstarved"].run_dir)
+
+
+@pytest.mark.e2e
+@pytest.mark.wallclock  # as the test above
+@pytest.mark.skipif(not may_raise_priority(), reason="starving a process needs SCHED_FIFO: root or CAP_SYS_NICE")
+@pytest.mark.parametrize("spinner", [SPIN, SLICER], ids=["no_cpu", "thin_slices"])
+def test_an_emulator_on_its_own_clock_starved_in_flight_is_waited_for_and_the_hover_holds(tmp_path, spinner):
+    # link loss makes the emulator a board on its own clock (paced: no reply is waited for). Starved for 0.3 s in the
+    # tracked hover with the bench flying on, this flight's pitch error reached 8.1° without any wait; in thin slices
+    # with the no-run rule alone 2.3° and 5.8° (two runs). Unstarved, and waited for either way, it stays under 0.4°
+    scenario_path = tmp_path / "starved.yaml"
+    scenario_path.write_text("name: starved\nduration_s: 1.3\nseed: 5\nend: disarm\n"
+                             "reference: {type: hover, altitude_m: 1}\n"
+                             "faults: {link: [{kind: loss, probability: 0.05}]}\n"
+                             "expect: {settle_s: 0.5, max_error_m: 0.5, max_attitude_error_deg: 2}\n")
+    starved = StarveMidFlight(0.3, priority=FIFO_PRIORITY + 10, spinner=spinner)  # over the bench's and emulator's
+
+    def starve_once_tracked(frame: StepFrame) -> None:
+        if frame.mission_t >= 0.7 and not starved.threads:
+            starved.start()
+
+    outcome = run_scenario(load_scenario(scenario_path),
+                           RunOptions(board=EmulatorWithItsProcess(starved), runs_root=tmp_path, telemetry=None,
+                                      gcs=[]), [FrameSink(starve_once_tracked)])
+    for thread in starved.threads:
+        thread.join()
+    assert starved.states["R"] > 0.8 * sum(starved.states.values())  # it waited for its CPU meanwhile
+    metrics = json.loads((outcome.run_dir / "metrics.json").read_text())
+    assert outcome.exit_code == 0, (outcome.reason, metrics["expectations_failed"])
+    waits = metrics["timing"]["board_cpu_waits"]
+    assert 0.2 < waits["total_s"] < 0.4, waits  # the starvation's 0.3 s but the ~5 ms it takes to be seen

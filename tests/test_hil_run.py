@@ -37,9 +37,9 @@ def read_mcap(path: Path) -> list[tuple[str, int, bytes]]:
         return [(ch.topic, msg.log_time, msg.data) for _, ch, msg in make_reader(f).iter_messages()]
 
 
-# link_faults flies paced on the wall clock and is judged on its attitude: alone its three runs here gave the same
-# 0.69° (bound 3°); beside another test's flight it read 4.04° once (no late step) and 7.47° beside two. It runs
-# alone with the `wallclock` tests.
+# link_faults flies paced on the wall clock and is judged on its attitude, so it runs alone with the `wallclock`
+# tests. Beside other flights it broke its 3° bound three times (4.04°, 7.47°, and 3.71° in CI with the starved-board
+# wait on: no wait, the bench slipped twice, the board's estimate 2.7° off the truth; cause not found).
 WALL_CLOCK_JUDGED = {"link_faults"}
 
 

@@ -78,8 +78,11 @@ def fly(tmp_path: Path, text: str) -> tuple[subprocess.CompletedProcess[str], di
     return run, metrics
 
 
+@pytest.mark.wallclock  # paced and judged on its attitude: alone, as link_faults.yaml (test_hil_run.py)
 def test_five_percent_loss_and_latency_are_ridden_through_with_the_figures_in_metrics(tmp_path):
-    run, metrics = fly(tmp_path, "name: lossy\nduration_s: 4\nseed: 5\nreference: {type: hover, altitude_m: 3}\n"
+    # disarmed where it hovers at the end: the landing after it (~9 s of wall clock) is judged by nothing here
+    run, metrics = fly(tmp_path, "name: lossy\nduration_s: 4\nseed: 5\nend: disarm\n"
+                                 "reference: {type: hover, altitude_m: 3}\n"
                                  "faults:\n  link:\n    - {kind: loss, probability: 0.05}\n"
                                  "    - {kind: latency, delay_ms: 2, jitter_ms: 1}\n"
                                  "expect: {settle_s: 1, max_error_m: 0.8, max_attitude_error_deg: 3}\n")

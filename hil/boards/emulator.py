@@ -13,6 +13,7 @@ from typing import BinaryIO
 import yaml
 
 from firmware_interface.board import SIMULATED, BoardError, BoardSession
+from firmware_interface.board_starvation import CpuStarvation
 from firmware_interface.forkserver import FORKSERVER_ENV
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import FdTransport
@@ -20,7 +21,7 @@ from hil.boards.forked_emulator import ForkedEmulator, fork_emulator
 from hil.boards.gcs_relay import DEFAULT_GCS
 from hil.boards.handle import BoardHandle, ChildProcess
 from hil.boards.target import BoardPolicy, GroundTruthUse, LinkSettings
-from hil.host.process_cpu import scheduler_state
+from hil.host.process_cpu import cpu_schedule, scheduler_state
 from hil.scenario.plant import RotorGeometry
 from hil.scenario.schema import Scenario
 from hil.sensors.config import GPS_PROFILES, resolve
@@ -123,7 +124,8 @@ class EmulatorTarget:
         handle = BoardHandle(session, session, f"emulator on {pair.slave_path}{warm}",
                              EmulatorProcess(popen, run_dir / "emulator.log"))
         # one thread serves the link: its state is the board's (runnable and silent: waiting for a CPU)
-        session.watchdog.process_state = functools.partial(scheduler_state, popen.pid)
+        state = session.watchdog.process_state = functools.partial(scheduler_state, popen.pid)
+        session.starvation = CpuStarvation(functools.partial(cpu_schedule, popen.pid), state)
 
         def still_starting() -> None:
             note = handle.exit_note()

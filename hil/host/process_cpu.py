@@ -1,6 +1,7 @@
 """What Linux's /proc says of a board process the bench runs: the CPU time it has used, all its threads (the board's
 own share of a lockstep step, PX4's or the emulator's, beside the bench's breakdown of its own share), and its
-scheduler state (whether a silent board is waiting for a CPU: `firmware_interface.board_watchdog`)."""
+scheduler state, and its CPU time, time queued for a CPU and runs on a CPU from schedstat (whether a board is waiting
+for a CPU: `firmware_interface.board_watchdog`, `firmware_interface.board_starvation`)."""
 
 from __future__ import annotations
 
@@ -33,3 +34,14 @@ def scheduler_state(pid: int) -> str | None:
     (stopped), Z, ...; None where there is no such process or no /proc."""
     fields = _stat_fields(pid)
     return None if fields is None else fields[_STATE]
+
+
+def cpu_schedule(pid: int) -> tuple[int, int, int] | None:
+    """`pid`'s main thread's CPU nanoseconds, nanoseconds queued for a CPU and count of runs on a CPU
+    (/proc/PID/schedstat's three fields; the CPU time is brought up to date at each scheduler tick and switch, the
+    queued time as each wait ends); None where there is no such process, or the kernel keeps no schedstat."""
+    try:
+        cpu_ns, queued_ns, runs = (int(field) for field in Path(f"/proc/{pid}/schedstat").read_text().split()[:3])
+    except (OSError, ValueError):
+        return None
+    return cpu_ns, queued_ns, runs

@@ -135,8 +135,11 @@ def check_expectations(expect: Expect | None, metrics: dict[str, Any]) -> list[s
 
 
 def slip_note(timing: dict[str, Any]) -> str:
-    """", slipped N x (T ms in all)" for a paced run whose schedule slipped after stalls, else ""."""
-    slips = timing.get("slips") or {}
-    if not slips.get("count"):
-        return ""
-    return f", slipped {slips['count']}x ({slips['total_s'] * 1e3:.0f} ms in all)"
+    """", slipped N x (T ms in all)" for a paced run whose schedule slipped after stalls, and how often and how long
+    the simulation waited for a board process this machine starved of CPU (`board_starvation`); else ""."""
+    slips, waits = timing.get("slips") or {}, timing.get("board_cpu_waits") or {}
+    note = f", slipped {slips['count']}x ({slips['total_s'] * 1e3:.0f} ms in all)" if slips.get("count") else ""
+    if waits.get("count"):
+        note += (f"; waited {waits['count']}x for the board's process to get a CPU "
+                 f"({waits['total_s'] * 1e3:.0f} ms in all)")
+    return note

@@ -26,9 +26,8 @@ SITL_SETPOINT_PERIOD_US = 20_000
 
 class BoardIO:
     """A board with one link: the setpoint goes in the step's one write, ahead of the sensors, and the board
-    flies it this step. The next step is decided after the board's reply, which carries what it said."""
+    flies it this step."""
 
-    decides_early = False
     setpoint_in_frame = True
 
     def __init__(self, board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,
@@ -134,10 +133,8 @@ class BoardIO:
 class SplitBoardIO(BoardIO):
     """PX4 SITL: its commands, ACKs and states come on a UDP link its own thread serves, so no step of ours is the
     one they belong to. The setpoint goes there after the sensor frame (it never had a defined order against it),
-    at an offboard companion's rate (`SITL_SETPOINT_PERIOD_US`), and the next step is decided while PX4 computes
-    this one: PX4 waits for nothing but its sensors."""
+    at an offboard companion's rate (`SITL_SETPOINT_PERIOD_US`)."""
 
-    decides_early = True
     setpoint_in_frame = False
 
     def __init__(self, board: BoardHandle, truth_use: GroundTruthUse, frame: LocalFrame, steady_wind_ned: np.ndarray,

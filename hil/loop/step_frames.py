@@ -95,8 +95,7 @@ class StepFrames:
 
 def warm_up() -> None:
     """Compile (the first time on a machine) or load from the cache every compiled function of a step, with the
-    argument types a flight gives them, then forbid compiling more of them: a type no flight gives is a bug,
-    raised at once, not seconds of compiling in the middle of a run."""
+    argument types a flight gives them (`freeze` then forbids compiling more)."""
     suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(0))
     step = StepFrames(has_faults=False)
     vector, q = np.zeros(3), np.array((1.0, 0.0, 0.0, 0.0))
@@ -112,6 +111,14 @@ def warm_up() -> None:
                                                                      0.0))):
         encode(step.frames, 0, 1, 1, *fields)
     frame_scan.warm_up()  # the board's replies are read through it
+
+
+def freeze() -> None:
+    """No more compiling of a step's code: a type no flight gives is a bug, raised at once, not seconds of compiling
+    in the middle of a run. Called on the thread that flies once `warm_up` has returned, not at its end beside the
+    board's start: numba looks at a dispatcher's switch before at the signatures it holds, so the link's first read
+    of the board (the scanner's compiled path), waiting for numba's lock while `warm_up` loaded that function, was
+    refused once the freeze came in between ("compilation disabled", seen once in CI)."""
     STEP.freeze()
     hil_frames.FRAMES.freeze()
     frame_scan.FRAME_SCAN.freeze()

@@ -157,8 +157,8 @@ class Stepper:
                               self.t_us * 1e-6 / max(last_progress - started, 1e-9))
 
     def _decide(self) -> tuple[Decision, EnvironmentSample] | None:
-        """The pilot's decision for the step from the bench's current time (its asks sent at once), and the
-        environment at its mission time; None once the flight is over."""
+        """The pilot's decision for the next step (its asks sent as that step begins) from the bench's current time,
+        and the environment at its mission time; None once the flight is over."""
         view = self.view
         view.now_s, view.truth, view.outputs_armed = self.t_us * 1e-6, self.truth, self.armed
         view.messages, self._unseen = self._unseen, []
@@ -166,18 +166,18 @@ class Stepper:
         if decision is None:
             self.finished = True  # asked once more it would have nothing to decide
             return None
-        if not self.world.senders.ground_station_lost(decision.mission_t):  # the bench's commands are a GCS's
-            for ask in decision.asks:
-                self.board.command_session.ask(ask)
         self.phase, self.mission_t = decision.phase, decision.mission_t
         environment = self.world.environment.sample(decision.mission_t if decision.flying else -1.0)
         self.timing.lap("phase_and_environment")
         return decision, environment
 
     def _step(self, decided: Decision, env: EnvironmentSample) -> tuple[Decision, EnvironmentSample] | None:
-        """One step as `decided`: the plant, the sensors, the board's reply. Returns the next step's decision
-        when the board's links let it be made while the board computes (`BoardIO.decides_early`)."""
+        """One step as `decided`: the plant, the sensors, the board's reply. Returns the next step's decision, made
+        while the board computes this one: the pilot sees what the board said in this step's reply a step later."""
         timing, session, world = self.timing, self.board.hil_session, self.world
+        if not world.senders.ground_station_lost(decided.mission_t):  # the bench's commands are a GCS's: they go
+            for ask in decided.asks:  # before the step's frames, so a board on one link takes them in this step
+                self.board.command_session.ask(ask)
         if not session.waits_for_replies:  # a board on its own clock: take the reply that came while we slept
             self._take_reply(session.await_reply())
             timing.lap("frame")
@@ -200,7 +200,7 @@ class Stepper:
                                           mission_t)  # before the mission (-inf) no sensor fault acts
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")
-        early = self._decide() if self.io.decides_early else None
+        early = self._decide()
         waited_s = session.link.waited_s
         self._take_reply(session.await_reply())
         round_trip = timing.lap("board_reply", "wait_for_board", session.link.waited_s - waited_s) - sent
@@ -232,7 +232,7 @@ class Stepper:
             self.motors, self.armed = actuators.motors, actuators.armed
 
     def _board_texts(self, messages: list[Message]) -> None:
-        """The board's texts of this step as events, at once: the next step's decision may follow from them."""
+        """The board's texts of this step as events, at once, at the step's time (failsafes judged by them)."""
         for message in messages:
             if message.get_type() == "STATUSTEXT":
                 self.emit(f"board: {message.text}")

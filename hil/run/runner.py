@@ -40,7 +40,7 @@ from hil.host.stop_signals import stopped_by_signals
 from hil.judge.behaviour import behaviour_judge
 from hil.judge.metrics import MetricsCollector, check_expectations
 from hil.loop.sink import Outcome, Sink
-from hil.loop.step_frames import warm_up
+from hil.loop.step_frames import freeze, warm_up
 from hil.loop.stepper import Progress, Stepper
 from hil.outputs.context import OutputContext, OutputError
 from hil.outputs.disk import DiskWatch, filesystem_of, is_no_space
@@ -200,13 +200,17 @@ class _Run:
         behaviour = behaviour_judge(scenario, expect)
         pilot = make_pilot(scenario, flight.plan, step_us(scenario))
         ready_to_step()
+        freeze()  # here, on the thread that flies (`step_frames.freeze`)
         stepper = Stepper(world, handle, pilot, [metrics, behaviour, *sinks], step_us(scenario), self.paced,
                           self.policy.ground_truth, progress, self.options.speed_factor)
         with idle_cpus_polling(self.idle_cpus_not_for) as idle_cpus:
             result = stepper.run()
         report.reason, report.code, report.internal_error = result.reason, result.exit_code, result.internal_error
         report.final_t_us = stepper.t_us
-        report.metrics = {**metrics.compute(), "timing": {**stepper.timing.figures(self.paced), "idle_cpus": idle_cpus},
+        timing = {**stepper.timing.figures(self.paced), "idle_cpus": idle_cpus}
+        if (starvation := handle.hil_session.starvation) is not None and (waits := starvation.figures()):
+            timing["board_cpu_waits"] = waits
+        report.metrics = {**metrics.compute(), "timing": timing,
                           "link": handle.hil_session.link.counters, **pilot.summary(),
                           "behaviour": behaviour.figures(), **_link_figures(stepper, handle)}
         if report.code == EXIT_BOARD and (note := handle.exit_note(DYING_BOARD_S)):
