@@ -15,7 +15,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: run test test-fast lint typecheck fmu paper bench-tools clean
+.PHONY: run test test-fast lint typecheck fmu paper bench-tools test-tools clean
 
 $(STAMP): pyproject.toml
 	@echo ".venv from $(PYTHON): $$($(PYTHON) -c 'import sys; print(sys.version.split()[0], sys.executable)')"
@@ -62,6 +62,10 @@ paper: fmu
 # rt-tests; needs root, as apt-get does)
 bench-tools:
 	command -v cyclictest >/dev/null 2>&1 || (apt-get update -qq && apt-get install -y -qq rt-tests >/dev/null)
+
+# what tests/test_pythonfmu_exit.py watches a pythonfmu plant's exit with: valgrind (Debian; needs root)
+test-tools:
+	command -v valgrind >/dev/null 2>&1 || (apt-get update -qq && apt-get install -y -qq valgrind >/dev/null)
 
 clean:
 	rm -rf $(VENV) build runs
