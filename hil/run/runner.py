@@ -12,8 +12,7 @@ import gc
 import shutil
 import time
 import traceback
-from collections.abc import Callable
-from contextlib import ExitStack, suppress
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,7 +33,7 @@ from hil.exit_codes import (
     EXIT_INTERRUPTED,
     EXIT_OK,
 )
-from hil.host.beside import beside
+from hil.host.beside import BLOCKED_S, Beside, beside
 from hil.host.idle_cpus import idle_cpus_polling
 from hil.host.stop_signals import stopped_by_signals
 from hil.judge.behaviour import behaviour_judge
@@ -179,9 +178,9 @@ class _Run:
         """Attach, fly, judge; fills `report`. What it opens is closed by `stack`."""
         scenario, report, flight = self.scenario, self.report, self.flight
         ready_to_step = beside(_prepare_to_step, "prepare-to-step")  # while the board starts
-        # a run that ends before its first step (Ctrl-C, SIGTERM, a board that never came) still waits for it: a
-        # process that exits while that thread is inside numba's compiler died with SIGSEGV or SIGABRT
-        stack.callback(_waited, ready_to_step)
+        # a run that ends before its first step (Ctrl-C, SIGTERM, a board that never came) still waits for it, as
+        # long as it computes (`Beside.settle`)
+        stack.callback(_settled, ready_to_step, report)
         settings = LinkSettings(self.options.watchdog_s, tlog, reversible_rotors(flight.parameters),
                                 self.options.speed_factor, flight.plant.rotor_geometry(flight.parameters),
                                 ready_to_step, self.options.spin_wait)
@@ -235,10 +234,12 @@ def _prepare_to_step() -> None:
     gc.collect()
 
 
-def _waited(join: Callable[[], None]) -> None:
-    """Wait for work started beside the run; its failure only matters to a run that steps, which has raised it."""
-    with suppress(Exception):
-        join()
+def _settled(ready_to_step: Beside, report: _RunReport) -> None:
+    """The step's preparation waited for at the run's end; a failure only matters to a run that steps, which has
+    raised it. One that stopped computing unfinished is left behind, and the summary says so."""
+    if not ready_to_step.settle():
+        report.reason += ("; the compiled step's loading, waiting on a lock the stop left taken, was left behind "
+                          f"(no CPU for {BLOCKED_S:g} s)")
 
 
 def _no_room(runs_root: Path) -> RunOutcome:
