@@ -111,11 +111,11 @@ class FmuInstance:
 
     def free(self) -> None:
         """The instance freed, then the library unloaded, as fmpy's freeInstance does. An FMU exported by pythonfmu
-        (0.7.0, FMI 2 and 3 alike) holds its interpreter state in a static shared pointer that C++'s exit handlers
-        free and its library destructor then releases again, after: a write into freed memory at every exit of
-        the process, which corrupted glibc's free lists in some runs ("corrupted double-linked list", exit -6, once
-        in a clean CI run). Its own exported `finalizePythonInterpreter` releases that state while it is live, so
-        both exit paths find it empty (tests/test_pythonfmu_exit.py watches both under valgrind)."""
+        0.7.0 (FMI 2; pythonfmu3 0.3.4's source for FMI 3 is the same) holds its interpreter state in a static
+        shared pointer that C++'s exit handlers free and its library destructor then releases again, after: a write
+        into freed memory at every exit of the process, which corrupted glibc's free lists in some runs ("corrupted
+        double-linked list", exit -6, once in a clean CI run). Its own exported `finalizePythonInterpreter` releases
+        that state while it is live, so both exit paths find it empty (tests/test_pythonfmu_exit.py, valgrind)."""
         release_interpreter_state = getattr(self.dll, "finalizePythonInterpreter", None)
         (self.slave.fmi3FreeInstance if self.fmi3 else self.slave.fmi2FreeInstance)(self.component)
         if release_interpreter_state is not None:

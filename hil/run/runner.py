@@ -238,8 +238,8 @@ def _settled(ready_to_step: Beside, report: _RunReport) -> None:
     """The step's preparation waited for at the run's end; a failure only matters to a run that steps, which has
     raised it. One that stopped computing unfinished is left behind, and the summary says so."""
     if not ready_to_step.settle():
-        report.reason += ("; the compiled step's loading, waiting on a lock the stop left taken, was left behind "
-                          f"(no CPU for {BLOCKED_S:g} s)")
+        report.reason += (f"; the compiled step's loading stopped using CPU unfinished: left behind after "
+                          f"{BLOCKED_S:g} s")
 
 
 def _no_room(runs_root: Path) -> RunOutcome:
