@@ -29,6 +29,11 @@ from tests.support.recording_digest import simulated_digest
 
 WATCHDOG_S = 0.5  # under the ~0.95 s the kernel's real-time throttling leaves a starved process silent
 STARVE_AFTER_S, STARVE_FOR_S = 0.8, 1.0  # from the emulator's first heartbeat: its flight is under way by then
+# The emulator runnable in this share of the looks at it while starved, at least: unstarved it is runnable in a few
+# per cent (~50 us of work a 4 ms step). Starved, the kernel's real-time throttling (sched_rt_runtime_us 950 000 of
+# every 1 000 000) still leaves it 50 ms a second, in which it catches up and sleeps: 3 of 15 looks over a 0.3 s
+# starvation in one clean CI run (the bound was 0.8 then, and failed at exactly 12 of 15).
+STARVED_SHARE = 0.6
 REALTIME = "import os, sys, time\nos.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param({}))\n" \
            "sys.stdout.write('x')\nsys.stdout.flush()\n"
 SPIN = REALTIME + "while True: pass"
@@ -97,7 +102,7 @@ def test_an_emulator_starved_of_its_cpu_mid_flight_is_waited_for_and_records_the
         assert outcomes[label].exit_code == 0, outcomes[label].reason
     for thread in starved.threads:
         thread.join()
-    assert starved.states["R"] > 0.8 * sum(starved.states.values())  # waiting for its CPU, as the watchdog saw
+    assert starved.states["R"] > STARVED_SHARE * sum(starved.states.values())  # waiting for its CPU
     timing = json.loads((outcomes["starved"].run_dir / "metrics.json").read_text())["timing"]
     assert timing["step_wall_us"]["max"] > 1.2 * WATCHDOG_S * 1e6  # a silence over the watchdog was waited out
     assert simulated_digest(outcomes["starved"].run_dir) == simulated_digest(outcomes["unstarved"].run_dir)
@@ -127,7 +132,7 @@ def test_an_emulator_on_its_own_clock_starved_in_flight_is_waited_for_and_the_ho
                                       gcs=[]), [FrameSink(starve_once_tracked)])
     for thread in starved.threads:
         thread.join()
-    assert starved.states["R"] > 0.8 * sum(starved.states.values())  # it waited for its CPU meanwhile
+    assert starved.states["R"] > STARVED_SHARE * sum(starved.states.values())  # it waited for its CPU meanwhile
     metrics = json.loads((outcome.run_dir / "metrics.json").read_text())
     assert outcome.exit_code == 0, (outcome.reason, metrics["expectations_failed"])
     waits = metrics["timing"]["board_cpu_waits"]
