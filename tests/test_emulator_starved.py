@@ -28,7 +28,7 @@ from tests.support.emulator_process import EmulatorWithItsProcess, may_raise_pri
 from tests.support.recording_digest import simulated_digest
 
 WATCHDOG_S = 0.5  # under the ~0.95 s the kernel's real-time throttling leaves a starved process silent
-STARVE_AFTER_S, STARVE_FOR_S = 0.8, 1.0  # from the emulator's first heartbeat: its flight is under way by then
+STARVE_AT_MISSION_S, STARVE_FOR_S = 1.0, 1.0  # the hover under way; the 30 s flight outlasts the starvation
 # The emulator runnable in this share of the looks at it while starved, at least: unstarved it is runnable in a few
 # per cent (~50 us of work a 4 ms step). Starved, the kernel's real-time throttling (sched_rt_runtime_us 950 000 of
 # every 1 000 000) still leaves it 50 ms a second, in which it catches up and sleeps: 3 of 15 looks over a 0.3 s
@@ -44,29 +44,26 @@ SLICER = REALTIME + "while True:\n    end = time.monotonic() + 0.004\n    while 
 
 @dataclass
 class StarveMidFlight:
-    """The emulator pinned for `for_s` to one CPU on which a SCHED_FIFO process spins: `after_s` after its first
-    heartbeat, or when `start` is called (`after_s` None); its scheduler states sampled meanwhile."""
+    """The emulator pinned for `for_s` to one CPU on which a SCHED_FIFO process spins, from when `start` is called
+    (`pinned` set once it is); its scheduler states sampled meanwhile."""
 
     for_s: float
-    after_s: float | None = None
     priority: int = 5  # the spinner's: above a lockstep emulator's ordinary scheduling, not a paced one's FIFO
     spinner: str = SPIN
     pid: int = 0
     states: Counter[str | None] = field(default_factory=Counter)
     threads: list[threading.Thread] = field(default_factory=list)
+    pinned: threading.Event = field(default_factory=threading.Event)
 
     def __call__(self, pid: int) -> None:
         self.pid = pid
-        if self.after_s is not None:
-            self.start(self.after_s)
 
-    def start(self, after_s: float = 0.0) -> None:
-        thread = threading.Thread(target=self._starve, args=(after_s,), daemon=True)
+    def start(self) -> None:
+        thread = threading.Thread(target=self._starve, daemon=True)
         self.threads.append(thread)
         thread.start()
 
-    def _starve(self, after_s: float) -> None:
-        time.sleep(after_s)
+    def _starve(self) -> None:
         pid = self.pid
         cpus = os.sched_getaffinity(pid)
         cpu = max(cpus)
@@ -75,6 +72,7 @@ class StarveMidFlight:
         try:
             assert spinner.stdout is not None and spinner.stdout.read(1) == b"x"  # real-time and spinning now
             os.sched_setaffinity(pid, {cpu})
+            self.pinned.set()
             end = time.monotonic() + self.for_s
             while time.monotonic() < end:
                 self.states[scheduler_state(pid)] += 1
@@ -94,11 +92,20 @@ def test_an_emulator_starved_of_its_cpu_mid_flight_is_waited_for_and_records_the
     scenario_path.write_text("name: hold\nduration_s: 30\nseed: 5\nend: disarm\n"
                              "reference: {type: hover, altitude_m: 2}\n")
     scenario = load_scenario(scenario_path)
-    starved = StarveMidFlight(STARVE_FOR_S, STARVE_AFTER_S)
+    starved = StarveMidFlight(STARVE_FOR_S)
+
+    def starve_once_in_the_hover(frame: StepFrame) -> None:
+        # on the flying thread: the flight goes on only once the emulator is pinned beside the spinner. A start at a
+        # wall-clock time after the emulator's heartbeat came after a whole fast flight in one CI run
+        if frame.mission_t >= STARVE_AT_MISSION_S and not starved.threads:
+            starved.start()
+            assert starved.pinned.wait(10)
+
     outcomes = {}
-    for label, board in (("unstarved", EmulatorTarget()), ("starved", EmulatorWithItsProcess(starved))):
+    for label, board, sinks in (("unstarved", EmulatorTarget(), []),
+                                ("starved", EmulatorWithItsProcess(starved), [FrameSink(starve_once_in_the_hover)])):
         outcomes[label] = run_scenario(scenario, RunOptions(board=board, runs_root=tmp_path / label, telemetry=None,
-                                                            gcs=[], watchdog_s=WATCHDOG_S))
+                                                            gcs=[], watchdog_s=WATCHDOG_S), sinks)
         assert outcomes[label].exit_code == 0, outcomes[label].reason
     for thread in starved.threads:
         thread.join()

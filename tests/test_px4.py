@@ -270,6 +270,18 @@ class PhaseWatch:
         if sample.get("phase") == self._phase:
             self.reached.set()
 
+    def wait_for(self, bench: subprocess.Popen[str], timeout_s: float = 120) -> None:
+        """Until the run reaches the phase; a run that ended first, or is still short of it after `timeout_s`, fails
+        the test with what it printed (in one clean CI run a flight never reached landing and nothing said why)."""
+        deadline = time.monotonic() + timeout_s
+        while not self.reached.wait(0.05):
+            if bench.poll() is None and time.monotonic() < deadline:
+                continue
+            if bench.poll() is None:
+                bench.send_signal(signal.SIGINT)
+            out, err = bench.communicate(timeout=30)
+            pytest.fail(f"the run never reached {self._phase} (exit {bench.returncode}):\n{out[-3000:]}\n{err[-3000:]}")
+
     def close(self) -> None:
         self._sub.close()
 
@@ -284,7 +296,7 @@ def test_ctrl_c_stops_the_run_and_px4_within_two_seconds(sitl, tmp_path, phase, 
                                   "--px4", str(sitl), "--runs", str(tmp_path / "runs"), "--zenoh-connect",
                                   watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-        assert watch.reached.wait(120), f"the run never reached {phase}"
+        watch.wait_for(bench)
     finally:
         watch.close()
     interrupted = time.monotonic()
@@ -312,7 +324,7 @@ def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
                                   "--px4", str(sitl), "--runs", str(tmp_path / "runs"), "--zenoh-connect",
                                   watch.endpoint],
                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-        assert watch.reached.wait(120), "the run never reached the mission"
+        watch.wait_for(bench)
     finally:
         watch.close()
     run_dir = only_run_dir(tmp_path / "runs")
@@ -330,6 +342,25 @@ def test_px4_dying_mid_flight_ends_the_run_with_its_cause(sitl, tmp_path):
 
 
 LIBC = ctypes.CDLL(None, use_errno=True)  # tgkill(2): glibc 2.30 and later
+
+
+def _process_group(group: int) -> list[int]:
+    """The processes in process group `group` now."""
+    pids = []
+    for pid in [int(name) for name in os.listdir("/proc") if name.isdigit()]:
+        with suppress(ProcessLookupError):
+            if os.getpgid(pid) == group:
+                pids.append(pid)
+    return pids
+
+
+def _threads_stopped(pid: int) -> bool:
+    """Every thread of `pid` is stopped (T) or gone (proc(5): the state follows the command's closing parenthesis)."""
+    states = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        with suppress(OSError):
+            states.append((task / "stat").read_text().rsplit(")", 1)[1].split()[0])
+    return all(state in ("T", "t", "Z", "X") for state in states)
 
 
 @dataclass
@@ -363,6 +394,12 @@ class Px4Stall:
         (daemon,) = [pid for pid, argv in live_processes().items()
                      if argv[0].endswith("bin/px4") and str(self.runs.resolve()) in " ".join(argv)]
         os.killpg(daemon, signal.SIGSTOP)
+        # the stop lands as each thread is next scheduled: on a loaded machine PX4 answered two more steps after
+        # killpg returned (one clean CI run). The bench sends its next step only once this sink returns
+        deadline = time.monotonic() + 5.0
+        while not all(_threads_stopped(pid) for pid in _process_group(daemon)):
+            assert time.monotonic() < deadline, "PX4 did not stop within 5 s of SIGSTOP"
+            time.sleep(0.001)
         self.stalled_us = t_us
         if self.stall_s is not None:
             self.resume = threading.Timer(self.stall_s, self._continue, (daemon,))
@@ -374,9 +411,9 @@ class Px4Stall:
         the process, the kernel may run the handler PX4 installs for SIGCONT (hrt_thread.c) on any thread: on its
         daemon socket's thread, poll() fails with EINTR, that thread ends and unlinks /tmp/px4-sock-N, and the start-up
         script's next client fails ("error connecting to socket", PX4 exits 255): twice in this test's clean CI runs."""
-        for pid in [int(name) for name in os.listdir("/proc") if name.isdigit()]:
+        for pid in _process_group(daemon):
             with suppress(ProcessLookupError):  # the run may have ended and stopped PX4 meanwhile
-                if os.getpgid(pid) == daemon and LIBC.tgkill(pid, pid, signal.SIGCONT) != 0:
+                if LIBC.tgkill(pid, pid, signal.SIGCONT) != 0:
                     raise OSError(ctypes.get_errno(), f"tgkill {pid} SIGCONT")  # ESRCH: ProcessLookupError
 
     def fly(self, sitl: Path, scenario: Path, connect_timeout_s: float | None = None) -> RunOutcome:
