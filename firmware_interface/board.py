@@ -24,6 +24,7 @@ from pymavlink.dialects.v20.common import (
 
 from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames as frames
+from firmware_interface.board_dropped_reply import LOOK_SPAN_S
 from firmware_interface.board_requests import (
     BoardError,
     ParamSet,
@@ -271,9 +272,8 @@ class BoardSession:
         self.link.send_frame(self.link.pack(frames.encode_hil_sensor, row))
 
     def send_ground_truth(self, truth: codec.GroundTruth | codec.LocalTruth) -> bool:
-        """HIL_STATE_QUATERNION (a GroundTruth, what PX4 SITL reads) or ODOMETRY (a LocalTruth, float precision,
-        the emulator's exact-state path) to SITL or the emulator; refused for a real board (it would override
-        EKF2)."""
+        """HIL_STATE_QUATERNION (a GroundTruth, what PX4 SITL reads) or ODOMETRY (a LocalTruth, float precision, the
+        emulator's exact-state path) to SITL or the emulator; refused for a real board (it would override EKF2)."""
         if not self.policy.takes_ground_truth:
             return False
         self.link.send_frame(self._truth_frame(truth))
@@ -322,15 +322,13 @@ class BoardSession:
         return not self.policy.own_clock and self.wait_for_replies
 
     def await_reply(self) -> codec.ActuatorOutputs | None:
-        """The actuator outputs for the step just sent.
-
-        PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's time_usec in HIL_ACTUATOR_CONTROLS, so stale
-        replies to earlier steps are skipped. Before lockstep starts (free-run) each step waits at most
-        `free_run_wait_s` for a first reply, so no backlog of replies builds up; once a reply has started lockstep,
-        an earlier step's too, the step's own is waited for as long as the watchdog allows (on a loaded machine
-        the first replies can lag by more than the free-run wait). A board on its own clock is never waited
-        for, but for a process of this machine while the machine starves it of CPU (`board_starvation`). Raises
-        BoardError when the watchdog expires (`LinkWatchdog.check`).
+        """The actuator outputs for the step just sent. PX4 SITL (and the emulator) echo the triggering HIL_SENSOR's
+        time_usec in HIL_ACTUATOR_CONTROLS, so stale replies to earlier steps are skipped. Before lockstep starts
+        (free-run) each step waits at most `free_run_wait_s` for a first reply, so no backlog of replies builds up;
+        once a reply has started lockstep, an earlier step's too, the step's own is waited for as long as the
+        watchdog allows (on a loaded machine the first replies can lag by more than the free-run wait), unless the
+        board dropped it (`board_dropped_reply`). A board on its own clock is never waited for, but for a process of
+        this machine while the machine starves it of CPU (`board_starvation`). BoardError when the watchdog expires.
         """
         if not self.waits_for_replies:
             self._awaited_t_us = None
@@ -339,8 +337,7 @@ class BoardSession:
                 self.starvation.wait_out(self.poll)
             self.check_watchdog()
             return self.actuators
-        started = self.clock()
-        lockstep = self.lockstep
+        started, lockstep = self.clock(), self.lockstep
         deadline = started + (self.watchdog.limit_s if lockstep else self.free_run_wait_s)
         while self._awaited_t_us is not None:
             if self.lockstep and not lockstep:  # an earlier step's reply began lockstep: this one's reply will come
@@ -354,7 +351,10 @@ class BoardSession:
                 if lockstep:
                     raise BoardError(f"no HIL_ACTUATOR_CONTROLS within {self.watchdog.limit_s:.2f} s in lockstep")
                 break
-            self.poll(remaining)
+            self.poll(min(remaining, LOOK_SPAN_S))
+            awaited = self._awaited_t_us
+            if lockstep and awaited is not None and self.watchdog.reply_dropped(self.clock() - started, awaited):
+                break
         self._awaited_t_us = None
         return self.actuators
 

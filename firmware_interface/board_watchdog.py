@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from firmware_interface.board_dropped_reply import DroppedReplies
 from firmware_interface.board_requests import BoardError
 
 # A lockstep board's boot lasts until its replies reach this much simulated time past its first reply. PX4 SITL's
@@ -47,6 +48,11 @@ class LinkWatchdog:
         self._boot_ends_us: int | None = None  # BOOT_US past the first reply
         # the scheduler state of the board's process ("R", "S", ...; None: gone), where the bench runs it
         self.process_state: Callable[[], str | None] | None = None
+        self.dropped_replies: DroppedReplies | None = None  # where the bench can tell a dropped lockstep reply
+
+    def reply_dropped(self, waited_s: float, t_us: int) -> bool:
+        """The lockstep reply to the step at `t_us`, awaited for `waited_s`, will not come (`board_dropped_reply`)."""
+        return self.dropped_replies is not None and self.dropped_replies.dropped(waited_s, t_us)
 
     @property
     def limit_s(self) -> float:

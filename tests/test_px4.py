@@ -354,13 +354,17 @@ def _process_group(group: int) -> list[int]:
     return pids
 
 
-def _threads_stopped(pid: int) -> bool:
-    """Every thread of `pid` is stopped (T) or gone (proc(5): the state follows the command's closing parenthesis)."""
-    states = []
+def _running_threads(pid: int) -> list[str]:
+    """`pid`'s threads that may still run its own code, as "tid comm state" (proc(5)). Stopped (T, t) or gone (Z, X)
+    threads will not; nor will one in D: it is in the kernel and stops on its way out (at PX4's boot a thread waits
+    there for a vfork child, itself stopped before its exec, until SIGCONT)."""
+    running = []
     for task in Path(f"/proc/{pid}/task").glob("*"):
         with suppress(OSError):
-            states.append((task / "stat").read_text().rsplit(")", 1)[1].split()[0])
-    return all(state in ("T", "t", "Z", "X") for state in states)
+            comm, rest = (task / "stat").read_text().rsplit(")", 1)
+            if rest.split()[0] not in ("T", "t", "Z", "X", "D"):
+                running.append(f"{task.name} {comm.split('(', 1)[1]} {rest.split()[0]}")
+    return running
 
 
 @dataclass
@@ -397,8 +401,8 @@ class Px4Stall:
         # the stop lands as each thread is next scheduled: on a loaded machine PX4 answered two more steps after
         # killpg returned (one clean CI run). The bench sends its next step only once this sink returns
         deadline = time.monotonic() + 5.0
-        while not all(_threads_stopped(pid) for pid in _process_group(daemon)):
-            assert time.monotonic() < deadline, "PX4 did not stop within 5 s of SIGSTOP"
+        while running := [thread for pid in _process_group(daemon) for thread in _running_threads(pid)]:
+            assert time.monotonic() < deadline, f"PX4 did not stop within 5 s of SIGSTOP: {running}"
             time.sleep(0.001)
         self.stalled_us = t_us
         if self.stall_s is not None:

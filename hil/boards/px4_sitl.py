@@ -18,12 +18,14 @@ from functools import partial
 from pathlib import Path
 
 from firmware_interface.board import SIMULATED, BoardSession
+from firmware_interface.board_dropped_reply import DroppedReplies
 from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link
 from hil.boards.handle import BoardHandle
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
 from hil.boards.px4.parameters import px4_parameters, sitl_start_parameters, write_sitl_start_parameters
 from hil.boards.px4.process import child_setup
 from hil.boards.target import BoardPolicy, LinkSettings
+from hil.host.process_cpu import threads_at_rest
 from hil.scenario.schema import Scenario
 
 SITL_SIMULATOR_PORT = 4560  # PX4 SITL instance N connects to 127.0.0.1:4560+N
@@ -76,6 +78,7 @@ class Px4SitlTarget:
         session = BoardSession(Link(listener, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
                                reversible_motors=settings.reversible_motors,
                                motor_count=settings.motor_count)
+        session.watchdog.dropped_replies = DroppedReplies(partial(threads_at_rest, px4.popen.pid))
         handle = BoardHandle(session, session, f"PX4 SITL instance {n} ({self.build.root}), simulator "
                              f"tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, the bench's commands udpout:127.0.0.1:"
                              f"{BENCH_LINK_PORT + n}; QGroundControl: udp {SITL_GCS_PORT}, MAVSDK/MAVROS: udp "

@@ -1,7 +1,8 @@
 """What Linux's /proc says of a board process the bench runs: the CPU time it has used, all its threads (the board's
 own share of a lockstep step, PX4's or the emulator's, beside the bench's breakdown of its own share), and its
 scheduler state, and its CPU time, time queued for a CPU and runs on a CPU from schedstat (whether a board is waiting
-for a CPU: `firmware_interface.board_watchdog`, `firmware_interface.board_starvation`)."""
+for a CPU: `firmware_interface.board_watchdog`, `firmware_interface.board_starvation`), and whether all its threads
+rest (a lockstep reply it dropped: `firmware_interface.board_dropped_reply`)."""
 
 from __future__ import annotations
 
@@ -45,3 +46,25 @@ def cpu_schedule(pid: int) -> tuple[int, int, int] | None:
     except (OSError, ValueError):
         return None
     return cpu_ns, queued_ns, runs
+
+
+def threads_at_rest(pid: int) -> tuple[int, bool] | None:
+    """The CPU nanoseconds all `pid`'s threads have used (schedstat's first field) and whether every one of them is
+    asleep (S) or gone; None where there is no such process or the kernel keeps no schedstat
+    (`firmware_interface.board_dropped_reply`)."""
+    try:
+        tids = os.listdir(f"/proc/{pid}/task")
+    except OSError:
+        return None
+    cpu_ns, asleep = 0, True
+    for tid in tids:
+        try:
+            stat = Path(f"/proc/{pid}/task/{tid}/stat").read_text()
+            schedstat = Path(f"/proc/{pid}/task/{tid}/schedstat").read_text()
+        except FileNotFoundError:
+            continue  # the thread ended meanwhile
+        except OSError:
+            return None
+        cpu_ns += int(schedstat.split()[0])
+        asleep = asleep and stat[stat.rindex(")") + 2] in "SZX"
+    return cpu_ns, asleep

@@ -209,6 +209,8 @@ class _Run:
         timing = {**stepper.timing.figures(self.paced), "idle_cpus": idle_cpus}
         if (starvation := handle.hil_session.starvation) is not None and (waits := starvation.figures()):
             timing["board_cpu_waits"] = waits
+        if (dropped := handle.hil_session.watchdog.dropped_replies) is not None and (replies := dropped.figures()):
+            timing["lockstep_replies_dropped"] = replies
         report.metrics = {**metrics.compute(), "timing": timing,
                           "link": handle.hil_session.link.counters, **pilot.summary(),
                           "behaviour": behaviour.figures(), **_link_figures(stepper, handle)}

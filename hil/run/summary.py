@@ -70,6 +70,7 @@ def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str
         if timing.get("round_trip_us"):
             rt = timing["round_trip_us"]
             lines.append(f"sensor -> actuator round trip: p50 {rt['p50']:.0f} us, p99 {rt['p99']:.0f} us")
+        lines += _dropped_replies(timing)
         if timing.get("board_cpu_us_per_step") is not None:
             lines.append(f"board's own CPU: {timing['board_cpu_us_per_step']:.0f} us per step")
         if timing.get("idle_cpus"):
@@ -88,3 +89,13 @@ def format_summary(scenario: Scenario, board: str, flight_code: str, reason: str
         lines += _expectation_lines(metrics, failures)
     return "\n".join(textwrap.fill(line, SUMMARY_WIDTH, subsequent_indent="    ", break_on_hyphens=False)
                      if len(line) > SUMMARY_WIDTH else line for line in lines) + "\n"
+
+
+def _dropped_replies(timing: dict[str, Any]) -> list[str]:
+    """The line on the lockstep replies the board dropped (`board_dropped_reply`), where it dropped any."""
+    dropped = timing.get("lockstep_replies_dropped")
+    if not dropped:
+        return []
+    at = ", ".join(f"{t:.3f}" for t in dropped["at_s"][:5]) + (", ..." if dropped["count"] > 5 else "")
+    return [f"lockstep replies the board dropped: {dropped['count']} (steps at {at} s), each stepped past with its "
+            "last outputs"]
