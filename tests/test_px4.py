@@ -448,6 +448,7 @@ def test_the_same_stall_after_px4s_boot_trips_the_watchdog(sitl, tmp_path):
     outcome = stall.fly(sitl, short_hover(tmp_path))
     assert outcome.exit_code == EXIT_BOARD, outcome.reason
     assert "board silent for" in outcome.reason and "(watchdog 1.00 s)" in outcome.reason
+    assert "PX4's console ends: " in outcome.reason and str(outcome.run_dir / "px4.log") in outcome.reason
     assert stall.stalled_us is not None and stall.frames[-1].t_us - stall.stalled_us <= 8000  # it ended there
     assert not processes_using(tmp_path / "runs")
 

@@ -51,6 +51,10 @@ class EmulatorProcess:
         code = self.popen.poll()
         return None if code is None else f"the emulator exited with code {code} (see {self.log_path})"
 
+    def console_note(self) -> str | None:
+        """None: a live emulator's silence is told by its scheduler state (`board_watchdog`), its log is beside."""
+        return None
+
     def stop(self) -> None:
         if self.popen.poll() is None:
             self.popen.terminate()

@@ -40,6 +40,8 @@ class BoardProcess(Protocol):
 
     def exit_note(self) -> str | None: ...
 
+    def console_note(self) -> str | None: ...
+
 
 @dataclass
 class BoardHandle:
@@ -82,6 +84,10 @@ class BoardHandle:
         with suppress(subprocess.TimeoutExpired):
             self.process.popen.wait(wait_s)
         return self.process.exit_note()
+
+    def console_note(self) -> str | None:
+        """What the board's process last printed, where that says more than its log's place (PX4's console)."""
+        return None if self.process is None else self.process.console_note()
 
     def close(self) -> None:
         """Stop what the bench started (PX4 included: nothing is left running), then close the links."""

@@ -214,7 +214,7 @@ class _Run:
         report.metrics = {**metrics.compute(), "timing": timing,
                           "link": handle.hil_session.link.counters, **pilot.summary(),
                           "behaviour": behaviour.figures(), **_link_figures(stepper, handle)}
-        if report.code == EXIT_BOARD and (note := handle.exit_note(DYING_BOARD_S)):
+        if report.code == EXIT_BOARD and (note := handle.exit_note(DYING_BOARD_S) or handle.console_note()):
             report.reason = f"{report.reason}; {note}"
         if report.code == EXIT_OK:
             verdicts = behaviour.verdicts(expect)

@@ -122,6 +122,11 @@ class Px4Process:
             raise BoardError(f"PX4 exited during start-up (code {code}): {self.log_tail() or 'no output'} "
                              f"(console: {self.log_path})")
 
+    def console_note(self) -> str | None:
+        """PX4's last console lines, for a board failure while it runs: its simulator thread's "poll timeout" (a
+        lockstep reply it dropped), a start-up script that stopped short of the bench's MAVLink instance."""
+        return f"PX4's console ends: {self.log_tail() or 'nothing'} (console: {self.log_path})"
+
     def log_tail(self, lines: int = 3) -> str:
         try:
             text = self.log_path.read_text(errors="replace")
