@@ -39,6 +39,7 @@ from firmware_interface import hil_codec as codec
 from firmware_interface.emulator import reply_frames
 from firmware_interface.emulator.commander import base_mode_flags
 from firmware_interface.emulator.control import VehicleState
+from firmware_interface.emulator.control.base import internals_in_order
 from firmware_interface.emulator.geometry import euler_to_quat
 from firmware_interface.emulator.reply_frames import ReplyBuffers, pack_reply
 
@@ -107,7 +108,7 @@ class Telemetry:
             pos_ned, vel_ned, eta, rates_frd = state.pos_ned, state.vel_ned, state.eta, state.rates_frd
         else:
             pos_ned = vel_ned = eta = rates_frd = reply.unused
-        reply.link[:] = (link.encoder.seq, link.encoder.system_id, link.encoder.component_id)
+        link.encoder.numbering_into(reply.link)
         count = pack_reply(reply.frames, reply.ends, reply.link, flags, t_us, (t_us - (board.boot_us or t_us)) // 1000,
                            pos_ned, vel_ned, eta, rates_frd, reply.origin, reply.home_d, reply.eta_cmd,
                            reply.thrust, reply.debug, reply.debug_name, motors)
@@ -139,7 +140,7 @@ class Telemetry:
             reply.eta_cmd[:] = out.eta_cmd
             reply.thrust = collective_fraction(out.thrust_n, board.config.vehicle)
             keys = board.controller.internal_keys
-            reply.debug[:len(keys)] = [out.internals[k] for k in keys]
+            reply.debug[:len(keys)] = internals_in_order(out.internals, keys)
         return flags
 
     # --- at the navigator's rate: the ground station's streams ------------------------------------------

@@ -12,6 +12,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 import fastcrc
+import numpy as np
 
 from firmware_interface.link.dialect import MAVLINK
 from firmware_interface.link.scanner import STX_V2
@@ -51,6 +52,11 @@ class FrameEncoder:
         self.system_id = system_id
         self.component_id = component_id
         self.seq = 0
+
+    def numbering_into(self, out: np.ndarray) -> None:
+        """(next sequence number, system id, component id) into `out`, as compiled packers take them (three item
+        writes: a tuple assigned to the array cost ~0.8 µs a step on the lockstep round trip)."""
+        out[0], out[1], out[2] = self.seq, self.system_id, self.component_id
 
     def encode(self, cls: Any, values: Mapping[str, Any]) -> bytes:
         """Frame for message class `cls` (e.g. MAVLink_hil_sensor_message) from field values."""

@@ -69,8 +69,8 @@ class BoardIO:
             step.setpoint[0:3] = reference.pos_ned + (offset_ned if offset_ned is not None else 0.0)
             step.setpoint[3:6], step.setpoint[6:9] = reference.vel_ned, reference.acc_ned
             step.setpoint[9] = reference.yaw
-            step.target[:] = self.board.command_session.target()
-        step.link[:] = (link.encoder.seq, link.encoder.system_id, link.encoder.component_id)
+            step.target[0], step.target[1] = self.board.command_session.target()
+        link.encoder.numbering_into(step.link)
         state = truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd
         self.sensors.refill()
         if step.has_faults:  # the models, the faults on their readings, then the frames

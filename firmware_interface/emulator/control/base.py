@@ -161,6 +161,14 @@ class InternalValues(Mapping[str, float]):
         return len(self._keys)
 
 
+def internals_in_order(internals: Mapping[str, float], keys: tuple[str, ...]) -> np.ndarray | list[float]:
+    """The values under `keys`, in that order: a compiled step's output array itself when those are its names
+    (DEBUG_FLOAT_ARRAY at 50 Hz read them one by one for ~4 µs)."""
+    if isinstance(internals, InternalValues) and internals._keys == keys:
+        return internals._values
+    return [internals[k] for k in keys]
+
+
 def control_output(out: np.ndarray, internal_keys: tuple[str, ...]) -> ControlOutput:
     """A compiled step's output array as the contract's `ControlOutput` (its arrays are views of it)."""
     return ControlOutput(float(out[0]), out[1:4], out[4:7], InternalValues(internal_keys, out[INTERNALS:]))
