@@ -14,12 +14,19 @@ _STAMP = struct.Struct(">Q")
 
 
 class TlogWriter:
-    """Appends frames with strictly increasing timestamps (frames of one microsecond keep their order)."""
+    """Appends frames with strictly increasing timestamps (frames of one microsecond keep their order).
+
+    A call stamps its frames and holds them; `write_held` writes them to the file. The bench calls it after a
+    step's frames are sent, so that the reply it reads in lockstep does not wait for a file write (~3 µs a step
+    on the round trip, measured); every HOLD_RECORDS calls and `close` write them too."""
+
+    HOLD_RECORDS = 256
 
     def __init__(self, path: Path) -> None:
         self.path = path
         self._file = open(path, "wb", buffering=1 << 16)  # noqa: SIM115 - closed in close()
         self._last_us = 0
+        self._held: list[tuple[int, Sequence[bytes]]] = []  # (first frame's stamp, the frames of one call)
         self.frames = 0
 
     def __call__(self, frames: Sequence[bytes]) -> None:
@@ -28,9 +35,18 @@ class TlogWriter:
             return
         now_us = max(time.time_ns() // 1000, self._last_us + 1)
         self._last_us = now_us + len(frames) - 1
-        self._file.write(b"".join(_STAMP.pack(now_us + k) + frame for k, frame in enumerate(frames)))
+        self._held.append((now_us, frames))
         self.frames += len(frames)
+        if len(self._held) >= self.HOLD_RECORDS:
+            self.write_held()
+
+    def write_held(self) -> None:
+        held, self._held = self._held, []
+        if held and not self._file.closed:
+            self._file.write(b"".join(_STAMP.pack(stamp_us + k) + frame for stamp_us, frames in held
+                                      for k, frame in enumerate(frames)))
 
     def close(self) -> None:
         if not self._file.closed:
+            self.write_held()
             self._file.close()

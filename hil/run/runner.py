@@ -38,7 +38,7 @@ from hil.host.idle_cpus import idle_cpus_polling
 from hil.host.stop_signals import stopped_by_signals
 from hil.judge.behaviour import behaviour_judge
 from hil.judge.metrics import MetricsCollector, check_expectations
-from hil.loop.sink import Outcome, Sink
+from hil.loop.sink import FrameSink, Outcome, Sink
 from hil.loop.step_frames import freeze, warm_up
 from hil.loop.stepper import Progress, Stepper
 from hil.outputs.context import OutputContext, OutputError
@@ -269,7 +269,8 @@ def _run(flight: _Flight, options: RunOptions, extra_sinks: list[Sink], progress
         try:
             context = run.output_context()
             sinks += [sink for open_output in OUTPUTS if (sink := open_output(context)) is not None]
-            run.attach_and_fly([*sinks, *extra_sinks], progress, stack, disk.guard(tlog, "link.tlog"))
+            tlog_writes = FrameSink(disk.guard(lambda _frame: tlog.write_held(), "link.tlog"))  # off the round trip
+            run.attach_and_fly([*sinks, *extra_sinks, tlog_writes], progress, stack, disk.guard(tlog, "link.tlog"))
         except OutputError as exc:
             report.reason, report.code = str(exc), EXIT_BAD_INPUT
         except KeyboardInterrupt as exc:
