@@ -6,6 +6,9 @@
    sampled every step, its decisions at 20 Hz, the ground-station streams); and flying on the true state
    (`state_source: truth`, the paper's studies): the step's ODOMETRY frame, then its HIL_SENSOR.
 2. Round trip over a real pty to the emulator in its own process (what the bench waits for).
+3. A `gust.yaml` flight (`hil run`), then its reads replayed into an emulator in this process
+   (`firmware_interface/emulator/replay.py`): a real flight's mix of steps (the 50 Hz streams, the navigator's
+   ticks, GPS) handled without the pty, against the CPU the emulator's process used a step in that flight.
 """
 
 from __future__ import annotations
@@ -14,17 +17,20 @@ import socket
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 from pymavlink.dialects.v20 import common
-from run_timing import benchmark_parser
+from run_timing import benchmark_parser, run_metrics, scenario_file
 
 from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames
 from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.board_waits import arm
 from firmware_interface.emulator import EmulatedBoard, build_config
+from firmware_interface.emulator.replay import replay_run
 from firmware_interface.link import Link, Message, open_pty_pair
 from firmware_interface.link.dialect import frame_msgid
 from firmware_interface.link.light_messages import LIGHT
@@ -121,6 +127,18 @@ def round_trip(controller: str, frames: list[tuple[bytes, bytes | None]]) -> tup
     return statistics.median(times) * 1e6, times[int(0.99 * len(times))] * 1e6
 
 
+def replayed_flight(quick: bool) -> None:
+    with tempfile.TemporaryDirectory() as scratch:
+        runs = Path(scratch) / "runs"
+        metrics = run_metrics(scenario_file("gust", quick, Path(scratch)), ["--no-gcs"], runs)
+        replays = [replay_run(next(runs.iterdir())) for _ in range(3)]
+    handling_us = np.concatenate([r.handling_s[r.handling_s.size // 4:] for r in replays]) * 1e6  # compiled by then
+    same = all(r.first_difference is None for r in replays)
+    print(f"  a gust flight's {replays[0].reads} reads replayed in process (replies byte for byte as in the flight: "
+          f"{'yes' if same else 'NO'}): p50 {np.median(handling_us):.1f} us, mean {handling_us.mean():.1f} us a read; "
+          f"the emulator's CPU in that flight {metrics['timing']['board_cpu_us_per_step']:.1f} us a step")
+
+
 def main() -> None:
     args = benchmark_parser(__doc__).parse_args()
     frames = sensor_frames(QUICK_FRAMES if args.quick else FRAMES)
@@ -133,6 +151,7 @@ def main() -> None:
         p50, p99 = round_trip(controller, frames)
         print(f"  {controller:12s}  in-process {step_us:6.1f} us (median; AUTO.TAKEOFF {navigator_us:6.1f} us; "
               f"on the true state {truth_us:6.1f} us)   pty round trip p50 {p50:6.1f} us  p99 {p99:6.1f} us")
+    replayed_flight(args.quick)
 
 
 if __name__ == "__main__":

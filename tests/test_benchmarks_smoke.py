@@ -19,7 +19,9 @@ TIMEOUT_S = 300  # a quick run takes seconds to a minute; a hung one fails its t
 # per script, text of each figure line it prints (the numbers in them vary from run to run)
 FIGURES: dict[str, tuple[str, ...]] = {
     "emulator_step": ("HIL_SENSOR in -> HIL_ACTUATOR_CONTROLS out", "smarc ", "smpid ", "backstepping ",
-                      "in-process", "us (median; AUTO.TAKEOFF", "pty round trip p50", "p99"),
+                      "in-process", "us (median; AUTO.TAKEOFF", "pty round trip p50", "p99",
+                      "reads replayed in process (replies byte for byte as in the flight: yes)",
+                      "the emulator's CPU in that flight"),
     "foxglove_speed": ("round 1: --foxglove", "messages to the client", "medians of 1 rounds",
                        "--foxglove with a client on every channel", "x real time, without", ": ratio"),
     "gcs_relay_speed": ("round 1: relay on", "datagrams reached the GCS", "medians of 1 rounds",

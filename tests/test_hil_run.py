@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -12,8 +13,10 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+import yaml
 from mcap.reader import make_reader
 
+from firmware_interface.emulator.replay import replay_run
 from tests.support.cli_runs import REPORTED, emulator_pids, run, wait_flying
 from tests.support.recording_digest import (
     CHECKSUMS,
@@ -73,6 +76,30 @@ def test_shipped_scenario_flies_bit_for_bit_as_before_the_last_refactor(scenario
                     "newer than its set: add it with python -m tests.support.recording_digest)")
     assert simulated_digest(run_dir) == recorded["scenarios"][scenario.stem], (
         f"{scenario.stem} no longer flies bit for bit as at {recorded['recorded_at_revision']}")
+
+
+@pytest.mark.parametrize("scenario", [s for s in SHIPPED if s.stem not in RECORDED["not_reproducible"]],
+                         ids=lambda p: p.stem)
+def test_the_emulator_answers_its_flights_reads_replayed_in_process_as_it_answered_them(scenario, shipped_flight):
+    """What the emulator sends depends only on the bytes it reads: the bench's frames of the flight (its tlog),
+    fed read by read to an emulator in this process, bring the replies it sent over the pty, byte for byte."""
+    _, run_dir = shipped_flight(scenario)
+    replay = replay_run(run_dir)
+    assert replay.reads >= 250 * json.loads((run_dir / "metrics.json").read_text())["timing"]["sim_s"] - 1
+    assert replay.first_difference is None, f"the replies differ from byte {replay.first_difference} on"
+
+
+def test_a_replay_on_another_controller_answers_otherwise(shipped_flight, tmp_path):
+    """The replay's check can fail: the same reads flown by another of the paper's laws change the motors of the
+    first armed step's reply."""
+    _, run_dir = shipped_flight(ROOT / "scenarios" / "hover.yaml")
+    for name in ("emulator.yaml", "link.tlog"):
+        shutil.copy(run_dir / name, tmp_path)
+    config = yaml.safe_load((tmp_path / "emulator.yaml").read_text())
+    assert config["controller"] == "smarc"
+    (tmp_path / "emulator.yaml").write_text(yaml.safe_dump({**config, "controller": "smpid"}))
+    replay = replay_run(tmp_path)
+    assert replay.first_difference is not None and len(replay.sent) > replay.first_difference > 1000
 
 
 def test_the_emulators_own_cpu_per_step_is_measured_and_within_the_step(shipped_flight):

@@ -115,13 +115,17 @@ class EmulatedBoard(Flight):
         """Serve the link until it is lost or `should_stop()`; returns why it stopped."""
         try:
             while not should_stop():
-                self._housekeeping()
-                self._answer(self.link.receive(0.05))
+                self.serve_once(0.05)
         except LinkLost as exc:
             self.stop_reason = f"link lost: {exc.reason}"
             return self.stop_reason
         self.stop_reason = "stopped"
         return self.stop_reason
+
+    def serve_once(self, timeout_s: float) -> None:
+        """One turn of the loop: the wall clock's business, then what one read brought, answered in one write."""
+        self._housekeeping()
+        self._answer(self.link.receive(timeout_s))
 
     def _housekeeping(self) -> None:
         now = self.clock()

@@ -10,6 +10,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from firmware_interface.link.scanner import CRC_LEN, INCOMPAT_SIGNED, SIGNATURE_LEN, STX_V2, V1_HEADER, V2_HEADER
+
 _STAMP = struct.Struct(">Q")
 
 
@@ -50,3 +52,16 @@ class TlogWriter:
         if not self._file.closed:
             self.write_held()
             self._file.close()
+
+
+def read_tlog_frames(path: Path) -> list[bytes]:
+    """The frames of a tlog this module wrote, in order (their stamps dropped)."""
+    data, at, frames = path.read_bytes(), 0, []
+    while at + _STAMP.size < len(data):
+        at += _STAMP.size
+        size = V1_HEADER + data[at + 1] + CRC_LEN
+        if data[at] == STX_V2:
+            size += V2_HEADER - V1_HEADER + (SIGNATURE_LEN if data[at + 2] & INCOMPAT_SIGNED else 0)
+        frames.append(data[at:at + size])
+        at += size
+    return frames
