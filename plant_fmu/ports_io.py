@@ -5,7 +5,7 @@ not (then the values pass bit for bit)."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -127,6 +127,15 @@ class StateReader:
                           self._get(o, "rotor_speed"), self._get(o, "rotor_torque", np.full(3, math.nan)), total,
                           self._scalar(o, "total_mass"), grounded, self._battery(o) if self._has_battery else None)
 
+    def live(self, o: np.ndarray) -> LiveOutputs | None:
+        """Views of the motion in `o` (the plant's output buffer, rewritten in place by each step), when the mapping
+        needs no conversion; None otherwise."""
+        if self._plain_slices is None:
+            return None
+        pos, vel, _, q, _, rates, force = self._plain_slices[:7]
+        return LiveOutputs(o[pos], o[vel], o[q], o[rates], o[force], lambda: self._battery(o) if self._has_battery
+                           else None)
+
     def _battery(self, o: np.ndarray) -> BatteryState:
         (v, fv), (i, fi), (c, fc), (r, fr) = self._battery_at
         cells = o[self._cells] if self._cells_plain else self._get(o, "cell_voltages")
@@ -137,6 +146,21 @@ class StateReader:
         if abs(float(np.linalg.norm(state.specific_force_frd)) - self.gravity) < 0.05 * self.gravity and float(
                 np.linalg.norm(state.vel_ned)) < 0.01:
             self.ground_d = float(state.pos_ned[2])
+
+
+class LiveOutputs:
+    """The plant's motion as views of its output buffer: each step's values in place, nothing copied (`live`)."""
+
+    __slots__ = ("_battery", "pos_ned", "q_wxyz", "rates_frd", "specific_force_frd", "vel_ned")
+
+    def __init__(self, pos_ned: np.ndarray, vel_ned: np.ndarray, q_wxyz: np.ndarray, rates_frd: np.ndarray,
+                 specific_force_frd: np.ndarray, battery: Callable[[], BatteryState | None]) -> None:
+        self.pos_ned, self.vel_ned, self.q_wxyz, self.rates_frd = pos_ned, vel_ned, q_wxyz, rates_frd
+        self.specific_force_frd, self._battery = specific_force_frd, battery
+
+    @property
+    def battery(self) -> BatteryState | None:
+        return self._battery()
 
 
 class _AttitudeReader:

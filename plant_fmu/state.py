@@ -5,7 +5,7 @@ give is NaN; `battery` is None for a plant without one."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 
@@ -36,3 +36,27 @@ class PlantState:
     total_mass_kg: float  # airframe + payload
     on_ground: bool
     battery: BatteryState | None = None  # None: the plant has no battery
+
+
+class StepOutputs(Protocol):
+    """What a step's frames are made from: the motion an ideal IMU, GPS and ground truth read, and the battery.
+    A `PlantState` is one; so is `Plant.live()`, the plant's outputs read in place until its next step, which the
+    bench's lockstep step sends its frames from before it copies them into the state it keeps."""
+
+    @property
+    def pos_ned(self) -> np.ndarray: ...
+
+    @property
+    def vel_ned(self) -> np.ndarray: ...
+
+    @property
+    def q_wxyz(self) -> np.ndarray: ...
+
+    @property
+    def rates_frd(self) -> np.ndarray: ...
+
+    @property
+    def specific_force_frd(self) -> np.ndarray: ...
+
+    @property
+    def battery(self) -> BatteryState | None: ...

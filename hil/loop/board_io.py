@@ -15,7 +15,7 @@ from hil.loop.step_frames import ODOMETRY_FLAG, SETPOINT_FLAG, StepFrames, pack_
 from hil.loop.timing import LoopTiming
 from hil.scenario.reference import RefSample
 from hil.sensors import SensorSuite
-from plant_fmu.state import PlantState
+from plant_fmu.state import StepOutputs
 
 # The offboard setpoint's period on PX4 SITL's command link: 50 Hz, what an offboard companion streams (MAVSDK
 # resends its last setpoint at 20 Hz; PX4 asks for more than 2 Hz). Each one costs PX4 a UDP receive and its
@@ -43,7 +43,7 @@ class BoardIO:
         self._arrays = sensors.arrays
         self._flags = ODOMETRY_FLAG if truth_use == "to_fly" else 0
 
-    def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None, truth: PlantState,
+    def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None, truth: StepOutputs,
                   fault_time_s: float) -> tuple[codec.SensorReadings, codec.GpsFix | None]:
         """This step's frame out first, in one write; then what may overlap the board's computation. Returns the
         step's readings."""
@@ -60,7 +60,7 @@ class BoardIO:
         return codec.readings_of_row(self.step.row)
 
     def _pack_and_send(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                       truth: PlantState, fault_time_s: float) -> None:
+                       truth: StepOutputs, fault_time_s: float) -> None:
         """The sensor models and the step's frames (`step_frames`), into the link's write."""
         step, link = self.step, self.board.hil_session.link
         flags = self._flags
@@ -85,7 +85,7 @@ class BoardIO:
         link.send_frames(step.frames, step.ends, count)
 
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                     truth: PlantState) -> None:
+                     truth: StepOutputs) -> None:
         if self.truth_use == "for_log":
             self.board.hil_session.send_ground_truth_ahead(self._ground_truth(t_us, truth))
 
@@ -120,7 +120,7 @@ class BoardIO:
             if not self.ground_station_lost:
                 board.command_session.link.send_frame(frame)
 
-    def _ground_truth(self, t_us: int, truth: PlantState) -> codec.GroundTruth:
+    def _ground_truth(self, t_us: int, truth: StepOutputs) -> codec.GroundTruth:
         """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log."""
         pos = truth.pos_ned
         lat, lon, alt = self.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
@@ -143,7 +143,7 @@ class SplitBoardIO(BoardIO):
         self.setpoints = Periodic(SITL_SETPOINT_PERIOD_US)
 
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
-                     truth: PlantState) -> None:
+                     truth: StepOutputs) -> None:
         super()._after_frame(t_us, reference, offset_ned, truth)
         commands = self.board.command_session
         if reference is not None and self.setpoints.due(t_us):

@@ -19,7 +19,7 @@ from firmware_interface.vehicle_codec import (
     manual_control_fields,
 )
 from hil.scenario.schema import Scenario
-from plant_fmu.state import PlantState
+from plant_fmu.state import StepOutputs
 
 Sticks = tuple[float, float, float, float]  # pitch, roll, throttle, yaw in [-1, 1]
 Window = tuple[float, float]  # start_s, end_s on the mission clock
@@ -72,7 +72,7 @@ class Senders:
     def ground_station_lost(self, mission_t: float) -> bool:
         return _within(self.ground_station_loss, mission_t)
 
-    def send(self, session: BoardSession, t_us: int, mission_t: float, truth: PlantState,
+    def send(self, session: BoardSession, t_us: int, mission_t: float, truth: StepOutputs,
              notes: Callable[[str], None]) -> list[tuple[str, dict[str, Any]]]:
         """This step's messages on the command link; returns their channel payloads (SI, as sent)."""
         sent = self._battery_status(session, t_us, truth)
@@ -86,7 +86,7 @@ class Senders:
         return sent
 
     def _battery_status(self, session: BoardSession, t_us: int,
-                        truth: PlantState) -> list[tuple[str, dict[str, Any]]]:
+                        truth: StepOutputs) -> list[tuple[str, dict[str, Any]]]:
         battery = truth.battery
         if self.battery is None or battery is None or not self.battery.due(t_us):
             return []

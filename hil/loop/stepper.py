@@ -133,8 +133,7 @@ class Stepper:
 
     def _account_time(self, started: float, board_cpu_at_start_s: float | None) -> None:
         """Wall and simulated time of the run, and the CPU its board's process used meanwhile."""
-        self.timing.wall_s = time.perf_counter() - started
-        self.timing.sim_s = self.t_us * 1e-6
+        self.timing.wall_s, self.timing.sim_s = time.perf_counter() - started, self.t_us * 1e-6
         board_cpu_s = self.board.cpu_s()
         if board_cpu_at_start_s is not None and board_cpu_s is not None:
             self.timing.board_cpu_s = board_cpu_s - board_cpu_at_start_s
@@ -168,6 +167,8 @@ class Stepper:
             return None
         self.phase, self.mission_t = decision.phase, decision.mission_t
         environment = self.world.environment.sample(decision.mission_t if decision.flying else -1.0)
+        self.world.plant.stage_environment(environment.motor_health, environment.wind_ned, environment.force_ned,
+                                           environment.torque_frd, environment.payload_kg)
         self.timing.lap("phase_and_environment")
         return decision, environment
 
@@ -182,22 +183,21 @@ class Stepper:
             self._take_reply(session.await_reply())
             timing.lap("frame")
         mission_t = decided.mission_t
-        world.plant.set_input_groups(self.motors, env.motor_health, env.wind_ned, env.force_ned, env.torque_frd,
-                                     env.payload_kg)
+        world.plant.set_rotor_commands(self.motors)  # the rest of the inputs were staged at the decision
         if env.battery_fault is not None and not self._cell_failed:
             self._fail_cell(*env.battery_fault)
         world.plant.step(self.dt)
-        self.truth = truth = world.plant.state()
+        outputs = world.plant.live()  # the frames come from it; the state kept is copied once they are sent
         self.t_us += self.dt_us
         for faults in world.link_faults:
             faults.now_s, faults.window_s = self.t_us * 1e-6, mission_t
         sent = timing.lap("plant")
-        self._silence_ground_station(mission_t)
-        # the battery's and the joystick's messages before the step's HIL frames: a board on one link takes them
-        # in the step they belong to, whenever its read wakes (after them, it took them a step late at times)
-        others = world.senders.send(self.board.command_session, self.t_us, mission_t, truth, self.emit)
-        readings, gps = self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, truth,
+        self._silence_ground_station(mission_t)  # then the battery's and the joystick's messages before the HIL
+        # frames: a board on one link takes them in their step whenever its read wakes (after: a step late at times)
+        others = world.senders.send(self.board.command_session, self.t_us, mission_t, outputs, self.emit)
+        readings, gps = self.io.send_step(self.t_us, decided.reference, decided.board_offset_ned, outputs,
                                           mission_t)  # before the mission (-inf) no sensor fault acts
+        self.truth = truth = world.plant.state()
         self._flush_pending()
         timing.lap("previous_step_messages_and_sinks")
         early = self._decide()
