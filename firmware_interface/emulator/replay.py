@@ -4,7 +4,7 @@ at a time as the emulator read them in the flight, and its answers compared with
 Why: what the emulator sends is meant to depend only on the bytes it reads, never on the wall clock or on how the
 kernel split the bytes into reads (the bench's recordings are bit for bit the same run after run because of it).
 A replay shows that for a whole flight in about a second, with no pty, no bench and no other process, and times
-the emulator's own handling of a real flight's mix of steps (benchmarks/emulator_replay.py)."""
+the emulator's own handling of a real flight's mix of steps (`benchmarks/emulator_step.py`'s last line)."""
 
 from __future__ import annotations
 
