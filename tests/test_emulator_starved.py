@@ -144,3 +144,28 @@ def test_an_emulator_on_its_own_clock_starved_in_flight_is_waited_for_and_the_ho
     assert outcome.exit_code == 0, (outcome.reason, metrics["expectations_failed"])
     waits = metrics["timing"]["board_cpu_waits"]
     assert 0.2 < waits["total_s"] < 0.4, waits  # the starvation's 0.3 s but the ~5 ms it takes to be seen
+
+
+@pytest.mark.e2e
+def test_a_bench_stalled_in_flight_in_lockstep_holds_the_emulators_clock_and_records_the_same_flight(tmp_path):
+    """The other side: the bench stops for longer than the emulator's 0.5 s HIL_SENSOR failsafe (one CI run's bench
+    lost its CPU for 0.6 s between two steps, and the emulator disarmed in flight). In lockstep the flight's time
+    stops with the bench, as PX4 SITL's does with its simulator, so nothing of the flight changes."""
+    scenario_path = tmp_path / "hold.yaml"
+    scenario_path.write_text("name: hold\nduration_s: 3\nseed: 5\nend: disarm\n"
+                             "reference: {type: hover, altitude_m: 2}\n")
+    scenario, stalls = load_scenario(scenario_path), []
+
+    def stall_once_in_the_hover(frame: StepFrame) -> None:  # after a step's frames went out, before its reply
+        if frame.mission_t >= 1.0 and not stalls:
+            stalls.append(frame.t_us)
+            time.sleep(0.8)
+
+    outcomes = {}
+    for label, sinks in (("unstalled", []), ("stalled", [FrameSink(stall_once_in_the_hover)])):
+        outcomes[label] = run_scenario(scenario, RunOptions(board=EmulatorTarget(), runs_root=tmp_path / label,
+                                                            telemetry=None, gcs=[]), sinks)
+        assert outcomes[label].exit_code == 0, outcomes[label].reason
+    assert stalls and json.loads((outcomes["stalled"].run_dir / "metrics.json").read_text())["timing"][
+        "step_wall_us"]["max"] > 0.8e6
+    assert simulated_digest(outcomes["stalled"].run_dir) == simulated_digest(outcomes["unstalled"].run_dir)

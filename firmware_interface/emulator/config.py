@@ -88,7 +88,9 @@ class EmulatorConfig(_Model):
     gains: Gains = Gains()
     state_source: Literal["estimator", "truth"] = "estimator"
     estimator: EstimatorSettings = EstimatorSettings()
-    failsafe_s: float = Field(0.5, gt=0, description="no HIL_SENSOR this long while armed: disarm")
+    failsafe_s: float | None = Field(0.5, gt=0, description=(
+        "no HIL_SENSOR this long of wall time while armed: disarm; null: never, for a bench in lockstep, whose stall "
+        "stops the simulated clock too (as PX4 SITL's lockstep clock stops with its simulator's)"))
     system_id: int = Field(1, ge=1, le=255)
     lockstep: bool = True
     params: dict[str, float] = Field(default_factory=dict, description=(

@@ -144,7 +144,8 @@ class EmulatedBoard(Flight):
         self.missions.service()
 
     def _sensors_silent_at(self, now: float) -> bool:
-        return now - self.last_sensor_wall > self.config.failsafe_s
+        failsafe_s = self.config.failsafe_s
+        return failsafe_s is not None and now - self.last_sensor_wall > failsafe_s
 
     def _answer(self, messages: list[Message]) -> None:
         """Everything answered to one read leaves in one write: the bench wakes once a step, for the reply with
