@@ -149,7 +149,7 @@ def test_an_emulator_on_its_own_clock_starved_in_flight_is_waited_for_and_the_ho
 @pytest.mark.e2e
 def test_a_bench_stalled_in_flight_in_lockstep_holds_the_emulators_clock_and_records_the_same_flight(tmp_path):
     """The other side: the bench stops for longer than the emulator's 0.5 s HIL_SENSOR failsafe (one CI run's bench
-    lost its CPU for 0.6 s between two steps, and the emulator disarmed in flight). In lockstep the flight's time
+    stalled 0.6 s between two steps, and the emulator disarmed in flight). In lockstep the flight's time
     stops with the bench, as PX4 SITL's does with its simulator, so nothing of the flight changes."""
     scenario_path = tmp_path / "hold.yaml"
     scenario_path.write_text("name: hold\nduration_s: 3\nseed: 5\nend: disarm\n"

@@ -92,7 +92,7 @@ def emulator_config(scenario: Scenario, rotors: RotorGeometry | None = None) -> 
     if board.params:  # PX4's parameters for every board (board.params), with the emulator's own (board.config)
         config["params"] = {**board.params, **config.get("params", {})}
     if not scenario.faults.link:  # lockstep: a bench the machine stalls holds the flight's time too (a CI run's
-        config.setdefault("failsafe_s", None)  # bench lost its CPU for 0.6 s, and the emulator disarmed in flight)
+        config.setdefault("failsafe_s", None)  # bench stalled 0.6 s between two steps; the emulator disarmed in flight)
     estimator = dict(config.get("estimator", {}))
     estimator.setdefault("gps_delay_s", gps.delay_s)
     config["estimator"] = estimator
