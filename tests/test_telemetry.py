@@ -13,11 +13,16 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from firmware_interface.hil_codec import SensorReadings
+from hil.loop.frame import StepFrame
 from hil.loop.sink import Outcome
 from hil.outputs.telemetry import DEFAULT_RATES_HZ, TelemetryPublisher, fetch_meta
 from hil.outputs.zenoh_session import ZenohOptions, open_session
+from hil.scenario.environment import EnvironmentSample
+from plant_fmu import Plant
 from tests.support.cli_runs import wait_flying
 from tests.support.ports import free_port, wait_listening
 
@@ -231,6 +236,54 @@ def test_the_run_flushes_its_last_samples_only_when_a_subscriber_listens():
         while publisher.heard() and time.monotonic() < deadline:
             time.sleep(0.05)
         assert not publisher.heard()
+    finally:
+        viewer.close()
+        publisher.close(Outcome(0, {}, ""))
+
+
+def test_a_step_is_published_only_on_the_channels_a_subscriber_matches():
+    """No sample is made for a channel nobody subscribes to; a subscriber's channel gets every step due at its rate
+    (the state at 50 Hz: one a 20 ms step) from when it matches, and nothing once it leaves."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    bench_session = open_session(ZenohOptions(listen=[endpoint], multicast_scouting=False))
+    run_id = "20990101T000000.000000Z-matched"
+    publisher = TelemetryPublisher(bench_session, run_id, {"scenario": "matched"})
+    viewer = open_session(ZenohOptions(connect=[endpoint], multicast_scouting=False))
+    with Plant({}) as plant:
+        resting = plant.state()
+    zero = np.zeros(3)
+    stepped_us: list[int] = []
+
+    def step() -> None:
+        t_us = 20_000 * (len(stepped_us) + 1)
+        stepped_us.append(t_us)
+        publisher.on_step(StepFrame(t_us, t_us * 1e-6, "mission", resting, None, SensorReadings(t_us), None,
+                                    (0.0,) * 4, False, EnvironmentSample(zero, zero, zero, 0.0, (1.0,) * 4)))
+
+    def wait_until(condition) -> None:
+        deadline = time.monotonic() + 10
+        while not condition() and time.monotonic() < deadline:
+            time.sleep(0.02)
+
+    received: list[tuple[str, int]] = []
+    try:
+        for _ in range(5):
+            step()
+        assert publisher.published == 0
+        subscriber = viewer.declare_subscriber(
+            f"hil/{run_id}/state", lambda sample: received.append((str(sample.key_expr),
+                                                                     json.loads(bytes(sample.payload))["t_us"])))
+        wait_until(lambda: publisher.heard_channels == {"state"})
+        assert publisher.heard_channels == {"state"}
+        for _ in range(5):
+            step()
+        wait_until(lambda: len(received) >= 5)
+        assert received == [(f"hil/{run_id}/state", t_us) for t_us in stepped_us[5:]]
+        assert publisher.published == 5
+        subscriber.undeclare()
+        wait_until(lambda: not publisher.heard_channels)
+        step()
+        assert publisher.published == 5
     finally:
         viewer.close()
         publisher.close(Outcome(0, {}, ""))

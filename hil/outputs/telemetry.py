@@ -2,9 +2,12 @@
 
 Publishing never blocks the loop: publishers use congestion control DROP, serialisation happens in
 the bench's sink slot (which overlaps the board's computation), and a slow or dead subscriber only
-loses samples. A liveliness token `hil/<run_id>` announces a running bench and a queryable
-`hil/<run_id>/meta` answers the resolved scenario and run metadata to late joiners. Rates are per
-channel, in samples per second of simulated time (equal to wall time when paced in real time).
+loses samples. A step's samples are made only for the channels a subscriber matches now (Zenoh's matching
+listeners say when that changes): with nobody listening, the usual case for a test, a sweep's sample or a flight
+nobody watches, they cost ~6 µs of a ~130 µs lockstep step, for samples Zenoh then dropped. A liveliness token
+`hil/<run_id>` announces a running bench and a queryable `hil/<run_id>/meta` answers the resolved scenario and
+run metadata to late joiners. Rates are per channel, in samples per second of simulated time (equal to wall time
+when paced in real time).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import orjson
@@ -91,6 +95,9 @@ class TelemetryPublisher:
         # the summary is sent once, after the loop: it may wait for the network rather than be dropped
         self._publishers["summary"] = session.declare_publisher(f"{self.prefix}/summary", encoding=json_encoding,
                                                                 congestion_control=zenoh.CongestionControl.BLOCK)
+        self.heard_channels: set[str] = set()  # the channels a subscriber matches now, kept by Zenoh's listeners
+        self._listeners = [publisher.declare_matching_listener(partial(self._on_matching, channel))
+                           for channel, publisher in self._publishers.items()]
         meta_payload = orjson.dumps(meta, default=str)
         self._queryable = session.declare_queryable(
             f"{self.prefix}/meta",
@@ -100,12 +107,22 @@ class TelemetryPublisher:
         self.published = 0
 
     def on_step(self, frame: StepFrame) -> None:
+        heard = self.heard_channels
+        if not heard:
+            return
         t_us, passes = frame.t_us, self._decimator.passes
         for channel, payload in frame_messages(frame):
-            if passes(channel, t_us):
+            if channel in heard and passes(channel, t_us):
                 self._put(channel, payload)
-        if self._link_counters is not None and self._decimator.link_due(t_us):
+        if self._link_counters is not None and "board/link" in heard and self._decimator.link_due(t_us):
             self._put("board/link", {"t_us": t_us, **self._link_counters()})
+
+    def _on_matching(self, channel: str, status: zenoh.MatchingStatus) -> None:
+        """Zenoh's matching listener of `channel`'s publisher (on a Zenoh thread)."""
+        if status.matching:
+            self.heard_channels.add(channel)
+        else:
+            self.heard_channels.discard(channel)
 
     def on_event(self, t_us: int, text: str) -> None:
         self._put("events", {"t_us": t_us, "text": text})
@@ -129,6 +146,8 @@ class TelemetryPublisher:
                 time.sleep(FLUSH_S)
             self._token.undeclare()
             self._queryable.undeclare()
+            for listener in self._listeners:
+                listener.undeclare()
             for publisher in self._publishers.values():
                 publisher.undeclare()
             self.session.close()
