@@ -44,8 +44,6 @@ BENCH_COMPONENT_ID = 51  # as jMAVSim: not a GCS, not the autopilot
 # the mission protocol as a ground station takes part in it, and the mission's progress
 MISSION_KINDS = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK", "MISSION_CURRENT", "MISSION_ITEM_REACHED")
 EVENT_MSG_ID = 410  # MAVLink's EVENT (the events protocol), newer than pymavlink's dialect
-
-
 INBOX_KINDS = frozenset({"HEARTBEAT", "STATUSTEXT", "COMMAND_ACK", "ATTITUDE_TARGET", "DEBUG_FLOAT_ARRAY",
                          "LOCAL_POSITION_NED", "ATTITUDE", "EXTENDED_SYS_STATE", *MISSION_KINDS})
 # What a session decodes; the board's other messages stay whole frames (for the tlog and a ground station).
@@ -287,13 +285,14 @@ class BoardSession:
                               np.array(truth.rates_frd), np.array((truth.lat_deg, truth.lon_deg, truth.alt_msl_m)),
                               np.array(truth.vel_ned), np.array(truth.specific_force_frd), truth.airspeed_m_s)
 
-    def send_ground_truth_ahead(self, truth: codec.GroundTruth) -> None:
-        """HIL_STATE_QUATERNION for PX4 SITL, built now (while the board computes) and written first in the next
-        step's frame. PX4 only logs it (its `*_groundtruth` topics), stamped with its lockstep clock when it
-        reads it: ahead of the next HIL_SENSOR that clock is still this truth's time; in the same write as this
-        step's HIL_SENSOR it was read a step early. Never for a real board, as `send_ground_truth`."""
+    def send_ground_truth_ahead(self, t_us: int, q_wxyz: np.ndarray, rates_frd: np.ndarray, lat_lon_alt: np.ndarray,
+                                vel_ned: np.ndarray, specific_force_frd: np.ndarray, airspeed_m_s: float) -> None:
+        """HIL_STATE_QUATERNION for PX4 SITL's log (`*_groundtruth`), packed from arrays while the board computes and
+        written first in the next step's frame, where PX4's lockstep clock still reads this truth's time (in the
+        step's own write it was a step early). Never for a real board."""
         if self.policy.takes_ground_truth:
-            self._truth_ahead = self._truth_frame(truth)
+            self._truth_ahead = self.link.pack(frames.encode_hil_state_quaternion, t_us, q_wxyz, rates_frd,
+                                               lat_lon_alt, vel_ned, specific_force_frd, airspeed_m_s)
 
     def exchange(self, readings: codec.SensorReadings, gps: codec.GpsFix | None = None,
                  truth: codec.GroundTruth | codec.LocalTruth | None = None) -> codec.ActuatorOutputs | None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import struct
 import time
 
+import numpy as np
 import pytest
 from pymavlink.dialects.v20.common import MAV_PARAM_TYPE_INT32, MAV_PARAM_TYPE_REAL32
 
@@ -114,7 +115,9 @@ def test_ground_truth_never_goes_to_a_real_board():
     session.wait_heartbeat(2.0)
     for _ in range(20):
         session.exchange(READINGS, truth=TRUTH)
-        session.send_ground_truth_ahead(TRUTH)
+        session.send_ground_truth_ahead(TRUTH.t_us, *(np.array(v) for v in (
+            TRUTH.q_wxyz, TRUTH.rates_frd, (TRUTH.lat_deg, TRUTH.lon_deg, TRUTH.alt_msl_m), TRUTH.vel_ned,
+            TRUTH.specific_force_frd)), TRUTH.airspeed_m_s)
     session.poll(0.2)
     assert "HIL_SENSOR" in scripted.received
     assert "HIL_STATE_QUATERNION" not in scripted.received

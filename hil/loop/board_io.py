@@ -3,6 +3,8 @@ board, PX4's HITL path), or PX4 SITL's lockstep HIL link beside its own command 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from firmware_interface import hil_codec as codec
@@ -42,6 +44,7 @@ class BoardIO:
         self.step = StepFrames(sensors.has_faults)
         self._arrays = sensors.arrays
         self._flags = ODOMETRY_FLAG if truth_use == "to_fly" else 0
+        self._lat_lon_alt, self._air_ned = np.zeros(3), np.zeros(3)  # the ground truth's, made in place
 
     def send_step(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None, truth: StepOutputs,
                   fault_time_s: float) -> tuple[codec.SensorReadings, codec.GpsFix | None]:
@@ -87,7 +90,7 @@ class BoardIO:
     def _after_frame(self, t_us: int, reference: RefSample | None, offset_ned: np.ndarray | None,
                      truth: StepOutputs) -> None:
         if self.truth_use == "for_log":
-            self.board.hil_session.send_ground_truth_ahead(self._ground_truth(t_us, truth))
+            self._send_ground_truth_ahead(t_us, truth)
 
     def drain(self) -> None:
         """Read what every link to the board holds now and drop its messages (the board's state keeps them)."""
@@ -120,14 +123,14 @@ class BoardIO:
             if not self.ground_station_lost:
                 board.command_session.link.send_frame(frame)
 
-    def _ground_truth(self, t_us: int, truth: StepOutputs) -> codec.GroundTruth:
-        """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log."""
-        pos = truth.pos_ned
-        lat, lon, alt = self.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
-        vel = truth.vel_ned
-        return codec.GroundTruth(t_us, tuple(truth.q_wxyz.tolist()), tuple(truth.rates_frd.tolist()),
-                                 lat, lon, alt, tuple(vel.tolist()), tuple(truth.specific_force_frd.tolist()),
-                                 float(np.linalg.norm(vel - self.steady_wind_ned)))
+    def _send_ground_truth_ahead(self, t_us: int, truth: StepOutputs) -> None:
+        """The true state as HIL_STATE_QUATERNION carries it (geodetic position), for PX4 SITL's log: packed from
+        the plant's outputs in place (made into a `GroundTruth` first, it cost ~14 µs of a --px4 step)."""
+        pos, lat_lon_alt, air_ned = truth.pos_ned, self._lat_lon_alt, self._air_ned
+        lat_lon_alt[:] = self.frame.to_geodetic(float(pos[0]), float(pos[1]), float(pos[2]))
+        np.subtract(truth.vel_ned, self.steady_wind_ned, out=air_ned)
+        self.board.hil_session.send_ground_truth_ahead(t_us, truth.q_wxyz, truth.rates_frd, lat_lon_alt, truth.vel_ned,
+                                                       truth.specific_force_frd, math.sqrt(air_ned.dot(air_ned)))
 
 
 class SplitBoardIO(BoardIO):
