@@ -87,8 +87,10 @@ class Senders:
 
     def _battery_status(self, session: BoardSession, t_us: int,
                         truth: StepOutputs) -> list[tuple[str, dict[str, Any]]]:
+        if self.battery is None or not self.battery.due(t_us):  # the plant's battery read only when sent
+            return []
         battery = truth.battery
-        if self.battery is None or battery is None or not self.battery.due(t_us):
+        if battery is None:
             return []
         cells = battery.cell_voltages_v.tolist()[:self.cells]
         fields = battery_status_fields(battery.voltage_v, battery.current_a, battery.consumed_c, battery.remaining,
