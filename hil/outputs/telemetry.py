@@ -96,8 +96,10 @@ class TelemetryPublisher:
         self._publishers["summary"] = session.declare_publisher(f"{self.prefix}/summary", encoding=json_encoding,
                                                                 congestion_control=zenoh.CongestionControl.BLOCK)
         self.heard_channels: set[str] = set()  # the channels a subscriber matches now, kept by Zenoh's listeners
-        self._listeners = [publisher.declare_matching_listener(partial(self._on_matching, channel))
-                           for channel, publisher in self._publishers.items()]
+        # called on Zenoh's own thread (`indirect=False`): the default gives each of the ~20 a Python thread
+        self._listeners = [publisher.declare_matching_listener(
+            zenoh.handlers.Callback(partial(self._on_matching, channel), indirect=False))
+            for channel, publisher in self._publishers.items()]
         meta_payload = orjson.dumps(meta, default=str)
         self._queryable = session.declare_queryable(
             f"{self.prefix}/meta",
