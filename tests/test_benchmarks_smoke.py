@@ -48,7 +48,8 @@ FIGURES: dict[str, tuple[str, ...]] = {
     "sweep_throughput": ("round 1: 1 worker", "samples/min", "samples per sweep, medians of 1 rounds",
                          "2 workers", ": ratio", "bare runs 2 vs 1", "machine ceiling (two bare hil runs"),
     "telemetry_load": ("telemetry load, scenarios/hover.yaml on the emulator", "no subscriber",
-                       "a subscriber sleeping 50 ms per sample", "x real time", "samples; ratio"),
+                       "a subscriber taking every sample", "a subscriber sleeping 50 ms per sample", "x real time",
+                       "samples; ratio to none", "samples; ratio to the prompt one"),
 }
 NEEDS_PX4 = {"px4_sitl_speed", "loop_speed"}
 
