@@ -136,7 +136,7 @@ class TelemetryPublisher:
     def heard(self) -> bool:
         """Whether a subscriber matches any channel now: with none, nothing is left to flush to anyone (and a run
         nobody watches, every test's and sweep sample's, ends FLUSH_S sooner)."""
-        return any(_matched(publisher) for publisher in self._publishers.values())
+        return bool(self.heard_channels)
 
     def close(self, outcome: Outcome) -> None:
         """The summary to subscribers, then undeclare everything and close the session (zenoh-python can hang
@@ -155,13 +155,6 @@ class TelemetryPublisher:
             self.session.close()
 
         close_within(finish, ZENOH_CLOSE_S)
-
-
-def _matched(publisher: zenoh.Publisher) -> bool:
-    """Whether a subscriber matches the publisher's key now. zenoh-python 1.x returns a MatchingStatus (its stub
-    says bool, and the object itself is always true)."""
-    status: Any = publisher.matching_status
-    return bool(status.matching)
 
 
 def open_output(context: OutputContext) -> TelemetryPublisher | None:
