@@ -69,9 +69,11 @@ class BoardIO:
         flags = self._flags
         if reference is not None and self.setpoint_in_frame:
             flags |= SETPOINT_FLAG
-            step.setpoint[0:3] = reference.pos_ned + (offset_ned if offset_ned is not None else 0.0)
-            step.setpoint[3:6], step.setpoint[6:9] = reference.vel_ned, reference.acc_ned
-            step.setpoint[9] = reference.yaw
+            setpoint = step.setpoint  # filled in place: no array made a step
+            np.add(reference.pos_ned, offset_ned if offset_ned is not None else 0.0, out=setpoint[0:3])
+            setpoint[3:6] = reference.vel_ned
+            setpoint[6:9] = reference.acc_ned
+            setpoint[9] = reference.yaw
             step.target[0], step.target[1] = self.board.command_session.target()
         link.encoder.numbering_into(step.link)
         state = truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd

@@ -10,7 +10,7 @@ from foxglove-sdk (protobuf), so the schemas are Foxglove's own.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 import numpy as np
@@ -54,8 +54,17 @@ def _transform(stamp: fm.Timestamp, parent: str, child: str, translation: Iterab
                              translation=_vec(translation), rotation=rotation)
 
 
+# the parts every view shares (a message's field takes a copy of them)
+_ORIGIN = _vec((0.0, 0.0, 0.0))
+_ENU_FROM_NED = _quat(ENU_FROM_NED_WXYZ)
+_TRUTH_COLOUR = fm.Color(r=0.1, g=0.4, b=1.0, a=1.0)
+_GPS_COLOUR = fm.Color(r=1.0, g=0.5, b=0.0, a=1.0)
+
+
 class FoxgloveViews:
-    """Turns channel samples into Foxglove messages; `messages()` returns (topic, message) pairs."""
+    """Turns channel samples into Foxglove messages; `messages()` returns (topic, message) pairs. A step brings
+    ~8 samples and ~0.8 views, so each sample is routed by one lookup of its channel (the recorder calls this
+    every step)."""
 
     def __init__(self, frame: LocalFrame, start_ns: int) -> None:
         self.frame = frame
@@ -64,50 +73,58 @@ class FoxgloveViews:
         self._next_us = 0
         self._view_t_us = -1  # the last step whose state went out: its reference goes out too
         self._board_rpy: list[float] | None = None
+        self._routes: dict[str, Callable[[dict[str, Any], list[tuple[str, Any]]], None]] = {
+            "board/attitude": self._board_attitude, "board/local_position_ned": self._board_position,
+            "sensors/gps": self._gps_fix, "state": self._state_views, "reference": self._reference_pose}
 
     def messages(self, samples: Iterable[tuple[str, dict[str, Any]]]) -> list[tuple[str, Any]]:
         out: list[tuple[str, Any]] = []
+        routes = self._routes
         for channel, sample in samples:
-            if channel == "board/attitude":
-                self._board_rpy = sample["rpy"]
-            elif channel == "board/local_position_ned" and self._board_rpy is not None:
-                stamp = timestamp(self.start_ns + sample["t_us"] * 1000)
-                out.append(("foxglove/tf", fm.FrameTransforms(transforms=[_transform(
-                    stamp, "ned", "board_estimate", sample["pos_ned"], _quat(euler_to_quat(*self._board_rpy)))])))
-            elif channel == "sensors/gps":
-                out.append(("foxglove/gps", self._gps_fix(sample)))
-            elif channel == "state" and sample["t_us"] >= self._next_us:
-                self._next_us = max(self._next_us + self._period_us, sample["t_us"])
-                self._view_t_us = sample["t_us"]
-                out.extend(self._state_views(sample))
-            elif channel == "reference" and sample["t_us"] == self._view_t_us:
-                out.append(("foxglove/reference", self._reference_pose(sample)))
+            if (route := routes.get(channel)) is not None:
+                route(sample, out)
         return out
 
-    def _state_views(self, state: dict[str, Any]) -> list[tuple[str, Any]]:
-        stamp = timestamp(self.start_ns + state["t_us"] * 1000)
+    def _board_attitude(self, attitude: dict[str, Any], _out: list[tuple[str, Any]]) -> None:
+        self._board_rpy = attitude["rpy"]
+
+    def _board_position(self, position: dict[str, Any], out: list[tuple[str, Any]]) -> None:
+        if self._board_rpy is not None:
+            stamp = timestamp(self.start_ns + position["t_us"] * 1000)
+            out.append(("foxglove/tf", fm.FrameTransforms(transforms=[_transform(
+                stamp, "ned", "board_estimate", position["pos_ned"], _quat(euler_to_quat(*self._board_rpy)))])))
+
+    def _state_views(self, state: dict[str, Any], out: list[tuple[str, Any]]) -> None:
+        t_us = state["t_us"]
+        if t_us < self._next_us:
+            return
+        self._next_us = max(self._next_us + self._period_us, t_us)
+        self._view_t_us = t_us
+        stamp = timestamp(self.start_ns + t_us * 1000)
         transforms = fm.FrameTransforms(transforms=[
-            _transform(stamp, "enu", "ned", (0.0, 0.0, 0.0), _quat(ENU_FROM_NED_WXYZ)),
+            fm.FrameTransform(timestamp=stamp, parent_frame_id="enu", child_frame_id="ned", translation=_ORIGIN,
+                              rotation=_ENU_FROM_NED),
             _transform(stamp, "ned", "vehicle", state["pos_ned"], _quat(state["q_wxyz"]))])
         lat, lon, alt = self.frame.to_geodetic(*state["pos_ned"])
         fix = fm.LocationFix(timestamp=stamp, frame_id="vehicle", latitude=lat, longitude=lon, altitude=alt,
-                             heading=state["rpy"][2], color=fm.Color(r=0.1, g=0.4, b=1.0, a=1.0))
-        return [("foxglove/tf", transforms), ("foxglove/truth_fix", fix)]
+                             heading=state["rpy"][2], color=_TRUTH_COLOUR)
+        out.append(("foxglove/tf", transforms))
+        out.append(("foxglove/truth_fix", fix))
 
-    def _reference_pose(self, ref: dict[str, Any]) -> fm.PoseInFrame:
+    def _reference_pose(self, ref: dict[str, Any], out: list[tuple[str, Any]]) -> None:
+        if ref["t_us"] != self._view_t_us:
+            return
         stamp = timestamp(self.start_ns + ref["t_us"] * 1000)
-        pose = fm.Pose(position=fm.Vector3(x=ref["pos_ned"][0], y=ref["pos_ned"][1], z=ref["pos_ned"][2]),
-                       orientation=_quat(euler_to_quat(0.0, 0.0, ref["yaw"])))
-        return fm.PoseInFrame(timestamp=stamp, frame_id="ned", pose=pose)
+        pose = fm.Pose(position=_vec(ref["pos_ned"]), orientation=_quat(euler_to_quat(0.0, 0.0, ref["yaw"])))
+        out.append(("foxglove/reference", fm.PoseInFrame(timestamp=stamp, frame_id="ned", pose=pose)))
 
-    def _gps_fix(self, gps: dict[str, Any]) -> fm.LocationFix:
+    def _gps_fix(self, gps: dict[str, Any], out: list[tuple[str, Any]]) -> None:
         n, e, d = gps["vel_ned"]
         h, v = gps["eph_m"] ** 2, gps["epv_m"] ** 2
-        return fm.LocationFix(timestamp=timestamp(self.start_ns + gps["t_us"] * 1000), frame_id="gps",
-                              latitude=gps["lat_deg"], longitude=gps["lon_deg"], altitude=gps["alt_msl_m"],
-                              position_covariance=[h, 0, 0, 0, h, 0, 0, 0, v],
-                              position_covariance_type=_DIAGONAL_KNOWN, velocity=fm.Vector3(x=e, y=n, z=-d),
-                              color=fm.Color(r=1.0, g=0.5, b=0.0, a=1.0))
+        out.append(("foxglove/gps", fm.LocationFix(
+            timestamp=timestamp(self.start_ns + gps["t_us"] * 1000), frame_id="gps", latitude=gps["lat_deg"],
+            longitude=gps["lon_deg"], altitude=gps["alt_msl_m"], position_covariance=[h, 0, 0, 0, h, 0, 0, 0, v],
+            position_covariance_type=_DIAGONAL_KNOWN, velocity=fm.Vector3(x=e, y=n, z=-d), color=_GPS_COLOUR)))
 
 
 def mission_scene(scenario: Scenario, t_ns: int) -> fm.SceneUpdate:

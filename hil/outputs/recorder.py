@@ -72,7 +72,9 @@ def frame_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
 
 
 def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
-    s, t = frame.truth, frame.t_us
+    """The vectors go in as lists: orjson writes a 3-vector from a list in about half the time it takes from an
+    array (the same text)."""
+    s, t, e = frame.truth, frame.t_us, frame.environment
     messages: list[tuple[str, dict[str, Any]]] = [
         ("state", {"t_us": t, "pos_ned": s.pos_ned.tolist(), "vel_ned": s.vel_ned.tolist(),
                    "acc_ned": s.acc_ned.tolist(), "q_wxyz": s.q_wxyz.tolist(), "rpy": s.rpy.tolist(),
@@ -80,16 +82,16 @@ def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
                    "on_ground": s.on_ground, "phase": frame.phase, "mission_t": frame.mission_t}),
         ("sensors/imu", {"t_us": t, "accel_frd": frame.readings.accel_frd, "gyro_frd": frame.readings.gyro_frd}),
         ("actuators", {"t_us": t, "motors": frame.motors, "armed": frame.armed}),
-        ("environment", {"t_us": t, "wind_ned": frame.environment.wind_ned, "force_ned": frame.environment.force_ned,
-                         "torque_frd": frame.environment.torque_frd, "payload_kg": frame.environment.payload_kg,
-                         "motor_health": frame.environment.motor_health}),
+        ("environment", {"t_us": t, "wind_ned": e.wind_ned.tolist(), "force_ned": e.force_ned.tolist(),
+                         "torque_frd": e.torque_frd.tolist(), "payload_kg": e.payload_kg,
+                         "motor_health": e.motor_health}),
         ("timing", {"t_us": t, "step_wall_us": frame.step_wall_s * 1e6,
                     "round_trip_us": None if frame.round_trip_s is None else frame.round_trip_s * 1e6}),
     ]
     if frame.reference is not None:
         r = frame.reference
-        messages.append(("reference", {"t_us": t, "pos_ned": r.pos_ned, "vel_ned": r.vel_ned, "acc_ned": r.acc_ned,
-                                       "yaw": r.yaw}))
+        messages.append(("reference", {"t_us": t, "pos_ned": r.pos_ned.tolist(), "vel_ned": r.vel_ned.tolist(),
+                                       "acc_ned": r.acc_ned.tolist(), "yaw": r.yaw}))
     if frame.readings.mag_frd_t is not None:
         messages.append(("sensors/mag", {"t_us": t, "mag_frd_t": frame.readings.mag_frd_t}))
     if frame.readings.baro is not None:
