@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from pymavlink.dialects.v20 import common
@@ -24,7 +24,9 @@ from pymavlink.dialects.v20.common import (
 
 from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames as frames
+from firmware_interface.actuator_reply import ActuatorReader
 from firmware_interface.board_dropped_reply import LOOK_SPAN_S
+from firmware_interface.board_report import BoardInfo, BoardReport
 from firmware_interface.board_requests import (
     BoardError,
     ParamSet,
@@ -68,29 +70,6 @@ SIMULATED = LinkPolicy(own_clock=False, takes_ground_truth=True)  # PX4 SITL, th
 ON_OWN_CLOCK = LinkPolicy(own_clock=True, takes_ground_truth=False)  # a Pixhawk, PX4's HITL rehearsal
 
 
-@dataclass(frozen=True)
-class BoardInfo:
-    system_id: int
-    component_id: int
-    autopilot: int
-    vehicle_type: int
-    hil_enabled: bool
-    armed: bool
-
-
-@dataclass
-class BoardReport:
-    """What the board last told us, for the bench's recording and summary."""
-
-    info: BoardInfo | None = None
-    armed: bool = False
-    custom_mode: int = 0
-    status_texts: list[tuple[int, str]] = field(default_factory=list)
-    latest: dict[str, Message] = field(default_factory=dict)
-    acks: dict[int, int] = field(default_factory=dict)
-    params: dict[str, float] = field(default_factory=dict)  # PARAM_VALUE answers, by name
-
-
 class BoardSession:
     """One conversation with one board. Times are monotonic seconds unless named `_us`."""
 
@@ -103,8 +82,7 @@ class BoardSession:
         self.heartbeat_period_s = heartbeat_period_s
         self.watchdog = LinkWatchdog(watchdog_s, lockstep_board=not policy.own_clock)
         self.free_run_wait_s = free_run_wait_s
-        self.reversible_motors = reversible_motors  # PX4 outputs reversible motors as -1..1
-        self.motor_count = motor_count  # HIL_ACTUATOR_CONTROLS' first outputs that drive the plant's rotors
+        self.actuator_reader = ActuatorReader(motor_count, reversible_motors)
         self.clock = clock
         self.report = BoardReport()
         self.inbox: list[Message] = []  # messages of `INBOX_KINDS` since the caller last drained it
@@ -125,6 +103,7 @@ class BoardSession:
         self._last_rx = clock()
         self.link.encoder.component_id = BENCH_COMPONENT_ID
         self.link.decoded_ids = DECODED_IDS
+        self.link.whole_frame_reader = self._read_reply
         self.start_time = clock()
 
     # --- housekeeping -------------------------------------------------------------
@@ -198,14 +177,10 @@ class BoardSession:
             return
         if self.relay is not None and not kind.startswith("HIL_"):
             self.relay.append(bytes(msg.get_msgbuf()))
-        if kind == "HIL_ACTUATOR_CONTROLS":
-            self.actuators = codec.read_actuator_controls(msg, self.motor_count, reversible=self.reversible_motors)
-            if not self.policy.own_clock:
-                self.lockstep = self.lockstep or self.actuators.lockstep
-                self.watchdog.replied(self.actuators.t_us)
-            if self._awaited_t_us is not None and self.actuators.t_us >= self._awaited_t_us:
-                self._awaited_t_us = None
-        elif kind == "HEARTBEAT":
+        if kind == "HIL_ACTUATOR_CONTROLS":  # in `actuators`, never in the inbox or `report.latest`
+            self._take_reply(self.actuator_reader.read(bytes(msg.get_msgbuf())))  # pymavlink's: a bytearray
+            return
+        if kind == "HEARTBEAT":
             self._handle_heartbeat(msg)
         elif kind == "COMMAND_ACK":
             self.report.acks[msg.command] = msg.result
@@ -221,6 +196,26 @@ class BoardSession:
         if kind in INBOX_KINDS:
             self.inbox.append(msg)
         self.report.latest[kind] = msg
+
+    def _read_reply(self, data: bytes) -> bool:
+        """The link's reader of a read that is one whole HIL_ACTUATOR_CONTROLS frame of the board's: the lockstep
+        reply, handled in one compiled call (`actuator_reply`). False leaves the read to the scanner."""
+        outputs, info = self.actuator_reader.read(data), self.report.info
+        if outputs is None or (info is not None and self.actuator_reader.system_id != info.system_id):
+            return False
+        self._last_rx = self.clock()
+        self._take_reply(outputs)
+        return True
+
+    def _take_reply(self, outputs: codec.ActuatorOutputs | None) -> None:
+        if outputs is None:
+            return
+        self.actuators = outputs
+        if not self.policy.own_clock:
+            self.lockstep = self.lockstep or outputs.lockstep
+            self.watchdog.replied(outputs.t_us)
+        if self._awaited_t_us is not None and outputs.t_us >= self._awaited_t_us:
+            self._awaited_t_us = None
 
     def _handle_heartbeat(self, msg: Message) -> None:
         if msg.autopilot == MAV_AUTOPILOT_INVALID:  # another simulator or GCS, not the board

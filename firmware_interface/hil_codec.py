@@ -1,13 +1,13 @@
 """SI / NED / FRD values ⇄ PX4's HIL messages, as Python objects: a step's sensor values (`SensorReadings`, a
-`GpsFix`) to and from the float64 row `firmware_interface.hil_frames` packs into frames, and what a board sends
-read from pymavlink messages (MAVLink units to SI here: docs/px4_protocol.md §3–7).
+`GpsFix`) to and from the float64 row `firmware_interface.hil_frames` packs into frames, and the HIL messages read
+from pymavlink messages (MAVLink units to SI here: docs/px4_protocol.md §3–7). A board's actuator reply is read
+from its bytes by `firmware_interface.actuator_reply`.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -103,9 +103,9 @@ class LocalTruth:
     rates_frd: Vec3  # rad/s
 
 
-@dataclass(frozen=True, slots=True)
-class ActuatorOutputs:
-    """HIL_ACTUATOR_CONTROLS as the bench uses it."""
+class ActuatorOutputs(NamedTuple):
+    """HIL_ACTUATOR_CONTROLS as the bench uses it (a tuple: made every lockstep step, at a third of a frozen
+    dataclass's cost)."""
 
     t_us: int
     motors: tuple[float, float, float, float]  # PX4 quad X order, 0..1
@@ -193,14 +193,3 @@ def hil_actuator_controls_fields(t_us: int, motors: tuple[float, ...], armed: bo
     mode = MODE_FLAG_CUSTOM | (MODE_FLAG_ARMED if armed else 0) | (MODE_FLAG_HIL if hil_enabled else 0)
     return {"time_usec": t_us, "controls": controls, "mode": mode,
             "flags": ACTUATOR_FLAG_LOCKSTEP if lockstep else 0}
-
-
-def read_actuator_controls(msg: Any, motor_count: int = 4, reversible: bool = False) -> ActuatorOutputs:
-    """Motor commands clipped to PX4's ranges: 0..1 for motors, −1..1 for reversible ones."""
-    low = -1.0 if reversible else 0.0
-    finite = math.isfinite  # a list, not a generator, and comparisons, not min/max: read every step the bench waits
-    motors = tuple([(1.0 if c > 1.0 else low if c < low else float(c)) if finite(c) else 0.0
-                    for c in msg.controls[:motor_count]])
-    mode, flags = msg.mode, msg.flags  # positional below: a frozen dataclass built by keyword costs twice as much
-    return ActuatorOutputs(msg.time_usec, motors, bool(mode & MODE_FLAG_ARMED),  # type: ignore[arg-type]
-                           bool(flags & ACTUATOR_FLAG_LOCKSTEP), mode, flags)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20.common import MAV_RESULT_ACCEPTED, MAV_RESULT_TEMPORARILY_REJECTED
 
-from firmware_interface.board import BoardInfo, BoardReport
+from firmware_interface.board_report import BoardInfo, BoardReport
 from firmware_interface.board_requests import ARM, OFFBOARD, ParamSet
 from hil.exit_codes import EXIT_BOARD, EXIT_EXPECT_FAILED
 from hil.loop.pilot import PilotView, RunAborted

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common
@@ -122,23 +120,6 @@ def test_setpoint_fields_by_hand():
     assert (f.target_system, f.target_component) == (1, 1)
     assert (f.x, f.y, f.z, f.yaw) == pytest.approx((1.0, 2.0, -3.0, 0.5))
     assert frame == pymavlink_frame(f)
-
-
-def test_actuator_controls_decode_quad_x_armed_lockstep():
-    msg = common.MAVLink_hil_actuator_controls_message(123, [0.61, 0.62, 0.63, 1.4] + [0.0] * 12, 129, 1)
-    out = codec.read_actuator_controls(msg)
-    assert out.motors == (0.61, 0.62, 0.63, 1.0)  # clipped to the motor range
-    assert out.armed and out.lockstep and out.mode == 129
-    disarmed = codec.read_actuator_controls(common.MAVLink_hil_actuator_controls_message(1, [0.0] * 16, 1, 0))
-    assert not disarmed.armed and not disarmed.lockstep
-
-
-def test_actuator_controls_outside_px4s_ranges_are_clipped_and_non_numbers_stop_the_motor():
-    """PX4's outputs: 0..1 for a motor, −1..1 for a reversible one; NaN and ±inf (a broken board) command 0."""
-    controls = [-0.3, math.nan, math.inf, -math.inf, 1.7, -1.5] + [0.0] * 10
-    msg = common.MAVLink_hil_actuator_controls_message(7, controls, 129, 1)
-    assert codec.read_actuator_controls(msg, 6).motors == (0.0, 0.0, 0.0, 0.0, 1.0, 0.0)
-    assert codec.read_actuator_controls(msg, 6, reversible=True).motors == (-0.3, 0.0, 0.0, 0.0, 1.0, -1.0)
 
 
 def test_board_side_actuator_fields_are_zero_while_disarmed():

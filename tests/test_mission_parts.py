@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common
 
-from firmware_interface.board import BENCH_COMPONENT_ID, BoardInfo, BoardReport
+from firmware_interface.board import BENCH_COMPONENT_ID
+from firmware_interface.board_report import BoardInfo, BoardReport
 from firmware_interface.board_requests import ARM, ParamSet, ProtocolMessage
 from firmware_interface.geodesy import LocalFrame
 from firmware_interface.hil_codec import SensorReadings

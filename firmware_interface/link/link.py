@@ -23,6 +23,8 @@ from firmware_interface.link.transports import SpinWait, Transport
 Message: TypeAlias = Any  # a pymavlink MAVLink_message: pymavlink carries no type information
 # sees every frame sent and every frame accepted, those of one write or one read together, e.g. a TlogWriter
 FrameTap = Callable[[Sequence[bytes]], None]
+# takes a read that is one whole frame its user handles at once (a lockstep reply): True when it did
+WholeFrameReader = Callable[[bytes], bool]
 # packs one frame at the start of a buffer: (buffer, seq, system id, component id, *fields) -> its length
 Packer = Callable[..., int]
 PACKED_MAX = 512  # bytes: the longest frame a packer writes (firmware_interface.hil_frames), with room
@@ -53,6 +55,7 @@ class Link:
         self.ids_seen: set[int] = set()  # the message id of every valid frame received
         self.passthrough: list[bytes] = []  # valid frames kept whole: not read by the user, or unknown to pymavlink
         self.passed_through = 0
+        self.whole_frame_reader: WholeFrameReader | None = None  # tried on each read before the scanner
         self.bytes_in = 0
         self.waited_s = 0.0  # wall time in reads that waited for bytes (a timeout > 0): the user's wait for its peer
         self.bytes_out = 0
@@ -141,6 +144,8 @@ class Link:
             self.bytes_in += len(data)
             if self.faults is not None:
                 data = self.faults.incoming_bytes(data)
+            elif data and self._read_whole(data):
+                return []
             frames = self.scanner.feed(data, time.monotonic())
             if self.faults is not None:
                 frames = self.faults.incoming_frames(frames)
@@ -148,6 +153,18 @@ class Link:
                 self.tap(frames)
             if frames or remaining <= 0:
                 return [m for m in (self._decode(f) for f in frames) if m is not None]
+
+    def _read_whole(self, data: bytes) -> bool:
+        """`data` taken by the whole-frame reader, with nothing held from an earlier read: counted and tapped as a
+        frame the scanner accepted and its user decoded."""
+        reader = self.whole_frame_reader
+        if reader is None or self.scanner.pending_bytes or not reader(data):
+            return False
+        self.scanner.frames_accepted += 1
+        self.ids_seen.add(frame_msgid(data))
+        if self.tap is not None:
+            self.tap((data,))
+        return True
 
     def _decode(self, frame: bytes) -> Message | None:
         msgid = frame_msgid(frame)
@@ -197,4 +214,4 @@ def open_link(connection: str, system_id: int = 1, component_id: int = 1, tap: F
     return Link(open_transport(parse_connection(connection, baud)), system_id, component_id, tap=tap)
 
 
-__all__ = ["FrameTap", "Link", "LinkLost", "Message", "open_link"]
+__all__ = ["FrameTap", "Link", "LinkLost", "Message", "WholeFrameReader", "open_link"]

@@ -9,7 +9,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from firmware_interface.board import BoardReport
+from firmware_interface.board_report import BoardReport
 from firmware_interface.board_requests import ParamSet, ProtocolMessage, Request
 from firmware_interface.link import Message
 from hil.scenario.reference import RefSample

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_interface import geodesy, hil_frames
+from firmware_interface import actuator_reply, geodesy, hil_frames
 from firmware_interface.compiled_code import CompiledCode
 from firmware_interface.hil_frames import (
     HAS_GPS,
@@ -110,7 +110,8 @@ def warm_up() -> None:
                            (hil_frames.encode_hil_state_quaternion, (0, np.zeros(4), vector, vector, vector, vector,
                                                                      0.0))):
         encode(step.frames, 0, 1, 1, *fields)
-    frame_scan.warm_up()  # the board's replies are read through it
+    frame_scan.warm_up()  # the board's frames are read through it
+    actuator_reply.warm_up()  # and its replies
 
 
 def freeze() -> None:
@@ -122,6 +123,7 @@ def freeze() -> None:
     STEP.freeze()
     hil_frames.FRAMES.freeze()
     frame_scan.FRAME_SCAN.freeze()
+    actuator_reply.REPLY.freeze()
 
 
 if __name__ == "__main__":  # `make fmu`: compiled into the cache at set-up, so that no run pays for it

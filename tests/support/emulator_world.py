@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import common
 
 from firmware_interface import hil_codec as codec
 from firmware_interface import hil_frames
+from firmware_interface.actuator_reply import ActuatorReader
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.encoder import FrameEncoder
 from hil.boards.emulator import start_emulator
@@ -57,6 +58,7 @@ class World:
         self.state: PlantState = self.plant.state()
         self.t_us = 0
         self.motors: tuple[float, ...] = (0.0, 0.0, 0.0, 0.0)
+        self.actuator_reader = ActuatorReader()
         self.received: list[tuple[int, Any]] = []  # (simulated µs, message) of everything the board sent
         self.latest: dict[str, Any] = {}  # the last message of each type
         self.truth: list[tuple[int, np.ndarray]] = []  # (µs, true NED position) of every step
@@ -190,7 +192,8 @@ class World:
         for _ in range(1000):  # up to 10 s: a loaded machine may stall the emulator's process that long
             for msg in self._receive(0.01):
                 if msg.get_type() == "HIL_ACTUATOR_CONTROLS" and msg.time_usec == self.t_us:
-                    outputs = codec.read_actuator_controls(msg)
+                    outputs = self.actuator_reader.read(msg.get_msgbuf())
+                    assert outputs is not None, "the emulator's HIL_ACTUATOR_CONTROLS did not read as one"
                     self.motors, self.armed = outputs.motors, outputs.armed
                     return
         raise RuntimeError(f"no HIL_ACTUATOR_CONTROLS for {self.t_us} us")
