@@ -24,6 +24,7 @@ from hil.sensors.geodesy import geodetic_to_ned, ned_to_geodetic
 from hil.sensors.gps import Gps
 from hil.sensors.imu import Imu
 from hil.sensors.mag import Magnetometer, earth_field_ned
+from hil.sensors.noise import BLOCK
 
 LEVEL = np.array([1.0, 0.0, 0.0, 0.0])
 REST_F = np.array([0.0, 0.0, -G])
@@ -187,6 +188,23 @@ def test_same_seed_same_samples_different_seed_different_noise():
     assert run_suite(42) == run_suite(42)
     a, b = run_suite(42), run_suite(43)
     assert [r.accel_frd for r, _ in a] != [r.accel_frd for r, _ in b]
+
+
+def test_each_noise_block_is_the_next_draw_of_its_sensors_stream_taken_exactly_when_the_last_is_used_up():
+    """The suite's arrays live in two buffers the compiled models read (`SensorSuite.buffers`), each sensor holding a
+    view of its part; the models say when a block's last row is taken and only then is the next drawn. After
+    BLOCK + 1 steps the IMU (a row a step) holds the second block of its own stream (the first of five spawned from
+    the seed), and its cursor has taken one row of it."""
+    suite = SensorSuite(SensorsConfig(), Home(), 250.0, np.random.default_rng(7))
+    floats, ints = suite.buffers
+    assert np.shares_memory(suite.imu.noise.rows, floats) and np.shares_memory(suite.gps.state, ints)
+    for k in range(BLOCK + 1):
+        suite.step(rest(4000 * (k + 1)))
+    imu_stream = np.random.default_rng(7).spawn(5)[0]
+    imu_stream.standard_normal(6)  # its turn-on biases
+    imu_stream.standard_normal(suite.imu.noise.rows.shape)  # its first block
+    assert np.array_equal(suite.imu.noise.rows, imu_stream.standard_normal(suite.imu.noise.rows.shape))
+    assert suite.imu.noise.cursor[0] == 1
 
 
 def test_mag_and_baro_never_exactly_constant_at_rest_in_non_ideal_profiles():

@@ -42,7 +42,7 @@ class BoardIO:
         self.ground_station_lost = False  # the relay's traffic is dropped both ways (a ground-station loss)
         self.sensors = sensors
         self.step = StepFrames(sensors.has_faults)
-        self._arrays = sensors.arrays
+        self._floats, self._ints = sensors.buffers
         self._flags = ODOMETRY_FLAG if truth_use == "to_fly" else 0
         self._lat_lon_alt, self._air_ned = np.zeros(3), np.zeros(3)  # the ground truth's, made in place
 
@@ -79,13 +79,13 @@ class BoardIO:
         state = truth.pos_ned, truth.vel_ned, truth.q_wxyz, truth.rates_frd
         self.sensors.refill()
         if step.has_faults:  # the models, the faults on their readings, then the frames
-            sense_only(self._arrays, t_us, *state, truth.specific_force_frd, step.row)
+            sense_only(self._floats, self._ints, t_us, *state, truth.specific_force_frd, step.row)
             self.sensors.row[:] = step.row
             self.sensors.apply_faults(fault_time_s)
             step.row[:] = self.sensors.row
             count = pack_only(step.row, *state, flags, step.setpoint, step.target, step.frames, step.ends, step.link)
         else:
-            count = sense_and_pack(self._arrays, t_us, *state, truth.specific_force_frd, step.row, flags,
+            count = sense_and_pack(self._floats, self._ints, t_us, *state, truth.specific_force_frd, step.row, flags,
                                    step.setpoint, step.target, step.frames, step.ends, step.link)
         link.send_frames(step.frames, step.ends, count)
 

@@ -25,7 +25,7 @@ from firmware_interface.hil_frames import (
 )
 from firmware_interface.link import frame_packing, frame_scan
 from hil.sensors import Home, SensorsConfig, SensorSuite, suite
-from hil.sensors.suite import suite_sense
+from hil.sensors.suite import sense_buffers
 
 STEP = CompiledCode("bench-step", (Path(suite.__file__).parent, Path(__file__), Path(hil_frames.__file__),
                                    Path(frame_packing.__file__), Path(geodesy.__file__)))
@@ -59,18 +59,19 @@ def pack_step(row: np.ndarray, pos_ned: np.ndarray, vel_ned: np.ndarray, q_wxyz:
 
 
 @STEP.compiled
-def sense_and_pack(sensors: tuple, t_us: int, pos_ned: np.ndarray, vel_ned: np.ndarray, q_wxyz: np.ndarray,
-                   rates_frd: np.ndarray, specific_force_frd: np.ndarray, row: np.ndarray, flags: int,
-                   setpoint: np.ndarray, target: np.ndarray, frames: np.ndarray, ends: np.ndarray,
+def sense_and_pack(floats: np.ndarray, ints: np.ndarray, t_us: int, pos_ned: np.ndarray, vel_ned: np.ndarray,
+                   q_wxyz: np.ndarray, rates_frd: np.ndarray, specific_force_frd: np.ndarray, row: np.ndarray,
+                   flags: int, setpoint: np.ndarray, target: np.ndarray, frames: np.ndarray, ends: np.ndarray,
                    link: np.ndarray) -> int:
-    suite_sense(*sensors, t_us, pos_ned, vel_ned, q_wxyz, rates_frd, specific_force_frd, row)  # type: ignore[call-arg]
+    """The sensor suite (`SensorSuite.buffers`: `floats`, `ints`) on the true state, then the step's frames."""
+    sense_buffers(floats, ints, t_us, pos_ned, vel_ned, q_wxyz, rates_frd, specific_force_frd, row)
     return pack_step(row, pos_ned, vel_ned, q_wxyz, rates_frd, flags, setpoint, target, frames, ends, link)
 
 
 @STEP.compiled
-def sense_only(sensors: tuple, t_us: int, pos_ned: np.ndarray, vel_ned: np.ndarray, q_wxyz: np.ndarray,
-               rates_frd: np.ndarray, specific_force_frd: np.ndarray, row: np.ndarray) -> None:
-    suite_sense(*sensors, t_us, pos_ned, vel_ned, q_wxyz, rates_frd, specific_force_frd, row)  # type: ignore[call-arg]
+def sense_only(floats: np.ndarray, ints: np.ndarray, t_us: int, pos_ned: np.ndarray, vel_ned: np.ndarray,
+               q_wxyz: np.ndarray, rates_frd: np.ndarray, specific_force_frd: np.ndarray, row: np.ndarray) -> None:
+    sense_buffers(floats, ints, t_us, pos_ned, vel_ned, q_wxyz, rates_frd, specific_force_frd, row)
 
 
 @STEP.compiled
@@ -100,9 +101,9 @@ def warm_up() -> None:
     step = StepFrames(has_faults=False)
     vector, q = np.zeros(3), np.array((1.0, 0.0, 0.0, 0.0))
     suite.refill()
-    sense_and_pack(suite.arrays, 4000, vector, vector, q, vector, vector, step.row, SETPOINT_FLAG | ODOMETRY_FLAG,
+    sense_and_pack(*suite.buffers, 4000, vector, vector, q, vector, vector, step.row, SETPOINT_FLAG | ODOMETRY_FLAG,
                    step.setpoint, step.target, step.frames, step.ends, step.link)
-    sense_only(suite.arrays, 4000, vector, vector, q, vector, vector, step.row)
+    sense_only(*suite.buffers, 4000, vector, vector, q, vector, vector, step.row)
     pack_only(step.row, vector, vector, q, vector, 0, step.setpoint, step.target, step.frames, step.ends, step.link)
     for encode, fields in ((hil_frames.encode_hil_sensor, (step.row,)), (hil_frames.encode_hil_gps, (step.row,)),
                            (hil_frames.encode_setpoint, (0, 1, 1, vector, vector, vector, 0.0)),
