@@ -61,7 +61,7 @@ class Link:
         self.bytes_out = 0
         self.frames_out = 0
         self._closed = False
-        self._batch: bytearray | None = None
+        self._batch: list[bytes] | None = None  # the pieces of the next write, when batching
         # the batch's frames for the tap, shown it once they are written (a block of frames with their ends, or one
         # frame): the tap (the run's tlog) then costs nothing before the write, which a lockstep step waits for
         self._tap_after_write: list[tuple[bytes, list[int]]] = []
@@ -92,7 +92,7 @@ class Link:
         self.encoder.seq = (self.encoder.seq + count) & 0xFF
         if self.faults is None and self._batch is not None:  # the common case: a step's frames into its write
             block = frames[:ends[count - 1]].tobytes()
-            self._batch += block
+            self._batch.append(block)
             self.bytes_out += len(block)
             self.frames_out += count
             if self.tap is not None:
@@ -110,7 +110,7 @@ class Link:
         if self._batch is not None:
             if self.tap is not None:
                 self._tap_after_write.append((frame, [len(frame)]))
-            self._batch += wire
+            self._batch.append(wire)
             return
         if self.tap is not None:
             self.tap((frame,))
@@ -120,13 +120,13 @@ class Link:
     def begin_batch(self) -> None:
         """Collect the frames sent from now on and write them at `flush()` in one piece: the board then
         reads everything of one step together, whatever the scheduling."""
-        self._batch = bytearray()
+        self._batch = []
 
     def flush(self) -> None:
         batch, self._batch = self._batch, None
         tapped, self._tap_after_write = self._tap_after_write, []
-        if batch:
-            self.transport.write(bytes(batch))
+        if batch:  # most often one piece, the step's frames: written as they are
+            self.transport.write(batch[0] if len(batch) == 1 else b"".join(batch))
         if tapped and self.tap is not None:
             self.tap([block[a:b] for block, ends in tapped for a, b in itertools.pairwise([0, *ends])])
 

@@ -3,8 +3,7 @@
 It only steps, sends, waits and hands frames on; its parts are passed in (as RotorPy's `simulate()` takes them):
 the world it simulates, the board, the pilot that decides each step, and the sinks. Lockstep with the emulator and
 PX4 SITL (free-run until the first actuator reply); wall-clock real time with a board on its own clock, injected
-link faults, or `paced=True`.
-"""
+link faults, or `paced=True`."""
 
 from __future__ import annotations
 
@@ -218,9 +217,10 @@ class Stepper:
         """In a ground-station loss nothing a ground station sends reaches the board: the bench's own heartbeat
         (its commands: `_decide`) and the relay's traffic stop; the HIL frames flow on."""
         lost = self.world.senders.ground_station_lost(mission_t)
-        for session in self.board.sessions:
-            session.ground_station_silent = lost
-        self.io.ground_station_lost = lost
+        if lost != self.io.ground_station_lost:  # set as it changes: both start as False
+            for session in self.board.sessions:
+                session.ground_station_silent = lost
+            self.io.ground_station_lost = lost
 
     def _fail_cell(self, cell: int, resistance_ohm: float, voltage_v: float) -> None:
         self.world.plant.set_battery_fault(cell, resistance_ohm, voltage_v)
