@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from firmware_interface.actuator_reply import ActuatorReader
 from firmware_interface.board_dropped_reply import DROPPED_AFTER_S, LOOK_SPAN_S
 from firmware_interface.link import Message
 from hil.boards.handle import BoardHandle
@@ -46,9 +47,12 @@ class Px4LosingOneReply:
         return self.target.policy(scenario)
 
     def attach(self, scenario: Scenario, run_dir: Path, settings: LinkSettings) -> BoardHandle:
+        """The reply is lost whichever way the link reads it: alone in a read (the session's whole-frame reader,
+        which then takes it and does nothing with it) or among other frames (the scanner's messages)."""
         handle = self.target.attach(scenario, run_dir, settings)
         link = handle.hil_session.link
-        receive = link.receive
+        receive, read_whole, replies = link.receive, link.whole_frame_reader, ActuatorReader()
+        assert read_whole is not None
 
         def losing_one(timeout_s: float) -> list[Message]:
             messages = receive(timeout_s)
@@ -59,7 +63,15 @@ class Px4LosingOneReply:
                     return [m for m in messages if m is not message]
             return messages
 
+        def losing_one_alone(data: bytes) -> bool:
+            reply = None if self.lost_us else replies.read(data)
+            if reply is not None and reply.t_us >= LOST_AT_US:
+                self.lost_us.append(reply.t_us)
+                return True
+            return read_whole(data)
+
         self.monkeypatch.setattr(link, "receive", losing_one)
+        self.monkeypatch.setattr(link, "whole_frame_reader", losing_one_alone)
         return handle
 
 
