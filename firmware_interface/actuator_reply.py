@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from pymavlink.dialects.v20 import common
 
-from firmware_interface.compiled_code import CompiledCode, dispatcher_of
+from firmware_interface.compiled_code import CompiledCode
 from firmware_interface.hil_codec import ACTUATOR_FLAG_LOCKSTEP, MODE_FLAG_ARMED, ActuatorOutputs
 from firmware_interface.link import frame_packing, scanner
 from firmware_interface.link.frame_packing import PAYLOAD, PAYLOAD_V1, STX_V2, crc_x25, get_f32, get_u64, payload_of
@@ -76,11 +76,10 @@ class ActuatorReader:
         self._payload = np.zeros(PAYLOAD_SIZE, dtype=np.uint8)
         self._fields = np.zeros(SYSTEM_ID + 1, dtype=np.uint64)
         self._controls = np.zeros(CONTROLS)
-        self._read_reply = dispatcher_of(read_reply)
 
     def read(self, frame: bytes) -> ActuatorOutputs | None:
         """The outputs of `frame` when it is one whole, valid HIL_ACTUATOR_CONTROLS frame; None otherwise."""
-        if len(frame) > MAX_FRAME or not self._read_reply(frame, self.low, self._payload, self._fields, self._controls):
+        if len(frame) > MAX_FRAME or not read_reply(frame, self.low, self._payload, self._fields, self._controls):
             return None
         t_us, flags, mode, self.system_id = self._fields.tolist()
         motors = tuple(self._controls.tolist()[:self.motor_count])

@@ -85,15 +85,6 @@ class CompiledCode:
                 entry.dispatcher.disable_compile()
 
 
-def dispatcher_of(function: F) -> F:
-    """numba's own dispatcher of a `compiled` function, made now (the function is compiled or loaded at its first
-    call as before): for a caller that calls it on every step, where the wrapper costs ~0.3 µs a call."""
-    entry = cast(_Entry, function)
-    if entry.dispatcher is None:
-        entry.dispatcher = entry._make()
-    return cast(F, entry.dispatcher)
-
-
 class _Entry:
     """A `compiled` function: numba's dispatcher, made at the first call with the group's cache directory."""
 

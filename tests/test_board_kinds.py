@@ -12,6 +12,7 @@ import pytest
 
 from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.link import Link, open_pty_pair, parse_connection
+from hil.boards import emulator
 from hil.boards.emulator import EmulatorProcess
 from hil.boards.handle import BoardHandle
 from hil.boards.registry import KINDS, BoardOptions, BoardSpecError, board_target
@@ -105,6 +106,27 @@ def test_the_emulator_attaches_speaks_and_leaves_nothing_running(tmp_path):
     finally:
         handle.close()
     assert process is not None and process.popen.poll() is not None
+
+
+def test_an_attach_stopped_once_the_emulator_has_started_stops_the_emulator(tmp_path, monkeypatch):
+    """A stop signal lands as a KeyboardInterrupt wherever the bench is: here, while the emulator's session is made,
+    after its process started (seen in CI: a SIGTERM 0.2 s into a run left the emulator running)."""
+    started = []
+
+    def start(args: list[str], log) -> object:
+        started.append(real_start(args, log))
+        return started[-1]
+
+    def stopped_here(*_: object) -> BoardSession:
+        raise KeyboardInterrupt("SIGTERM")
+
+    real_start = emulator.start_emulator
+    monkeypatch.setattr(emulator, "start_emulator", start)
+    monkeypatch.setattr(emulator, "emulator_session", stopped_here)
+    with pytest.raises(KeyboardInterrupt):
+        board_target("emulator").attach(load_scenario(ROOT / "scenarios" / "hover.yaml"), tmp_path, LinkSettings())
+    (popen,) = started
+    assert popen.poll() is not None  # stopped and reaped before the interrupt went on
 
 
 class NotReady(Exception):

@@ -125,24 +125,29 @@ class EmulatorTarget:
         with open(run_dir / "emulator.log", "wb") as log:
             popen = start_emulator(["--port", pair.slave_path, "--config", str(config_path), "--one-boot-heartbeat",
                                     *spin], log)
-        session = emulator_session(pair.master, settings)
-        warm = " (forked by the warm server)" if isinstance(popen, ForkedEmulator) else ""
-        handle = BoardHandle(session, session, f"emulator on {pair.slave_path}{warm}",
-                             EmulatorProcess(popen, run_dir / "emulator.log"))
-        # one thread serves the link: its state is the board's (runnable and silent: waiting for a CPU)
-        state = session.watchdog.process_state = functools.partial(scheduler_state, popen.pid)
-        session.starvation = CpuStarvation(functools.partial(cpu_schedule, popen.pid), state)
+        process = EmulatorProcess(popen, run_dir / "emulator.log")
 
         def still_starting() -> None:
-            note = handle.exit_note()
+            note = process.exit_note()
             if note is not None:
                 raise BoardError(f"{note} before its first heartbeat")
 
-        try:
+        handle: BoardHandle | None = None
+        try:  # from the emulator's start on, whatever stops the attach (a stop signal too) stops the emulator
+            session = emulator_session(pair.master, settings)
+            warm = " (forked by the warm server)" if isinstance(popen, ForkedEmulator) else ""
+            handle = BoardHandle(session, session, f"emulator on {pair.slave_path}{warm}", process)
+            # one thread serves the link: its state is the board's (runnable and silent: waiting for a CPU)
+            state = session.watchdog.process_state = functools.partial(scheduler_state, popen.pid)
+            session.starvation = CpuStarvation(functools.partial(cpu_schedule, popen.pid), state)
             session.wait_heartbeat(self.connect_timeout_s or EMULATOR_START_S, still_starting=still_starting,
                                    hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
         except BaseException:
-            handle.close()
+            if handle is not None:
+                handle.close()
+            else:
+                process.stop()
+                pair.master.close()
             raise
         finally:
             pair.release_slave()  # from now on the emulator's end closing reads as LinkLost

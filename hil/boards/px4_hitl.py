@@ -52,18 +52,21 @@ class Px4HitlTarget:
             pair.master.close()
             pair.release_slave()
             raise
-        session = BoardSession(Link(pair.master, tap=settings.tap), ON_OWN_CLOCK, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors,
-                               motor_count=settings.motor_count)
-        handle = BoardHandle(session, session,
-                             f"PX4 HITL rehearsal, instance {claim.number} ({self.build.root}) on {pair.slave_path}",
-                             px4, px4_parameters(scenario, settings.rotors))
-        try:
+        handle: BoardHandle | None = None
+        try:  # from PX4's start on, whatever stops the attach (a stop signal too) stops PX4
+            session = BoardSession(Link(pair.master, tap=settings.tap), ON_OWN_CLOCK, watchdog_s=settings.watchdog_s,
+                                   reversible_motors=settings.reversible_motors, motor_count=settings.motor_count)
+            handle = BoardHandle(session, session, f"PX4 HITL rehearsal, instance {claim.number} ({self.build.root}) "
+                                 f"on {pair.slave_path}", px4, px4_parameters(scenario, settings.rotors))
             session.wait_heartbeat(self.connect_timeout_s or PX4_START_TIMEOUT_S,
                                    hint=f"is {self.build.root} a px4_sitl_nolockstep build? see {px4.log_path}",
                                    still_starting=px4.check_starting)
         except BaseException:
-            handle.close()
+            if handle is not None:
+                handle.close()
+            else:
+                px4.stop()
+                pair.master.close()
             raise
         finally:
             pair.release_slave()  # PX4 holds its end now

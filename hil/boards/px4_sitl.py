@@ -75,22 +75,26 @@ class Px4SitlTarget:
             listener.close()
             claim.release()
             raise
-        session = BoardSession(Link(listener, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
-                               reversible_motors=settings.reversible_motors,
-                               motor_count=settings.motor_count)
-        session.watchdog.dropped_replies = DroppedReplies(partial(threads_at_rest, px4.popen.pid))
-        handle = BoardHandle(session, session, f"PX4 SITL instance {n} ({self.build.root}), simulator "
-                             f"tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, the bench's commands udpout:127.0.0.1:"
-                             f"{BENCH_LINK_PORT + n}; QGroundControl: udp {SITL_GCS_PORT}, MAVSDK/MAVROS: udp "
-                             f"{SITL_API_PORT + n}", process=px4, params=px4_parameters(scenario, settings.rotors))
-        try:
+        handle: BoardHandle | None = None
+        try:  # from PX4's start on, whatever stops the attach (a stop signal too) stops PX4
+            session = BoardSession(Link(listener, tap=settings.tap), SIMULATED, watchdog_s=settings.watchdog_s,
+                                   reversible_motors=settings.reversible_motors, motor_count=settings.motor_count)
+            session.watchdog.dropped_replies = DroppedReplies(partial(threads_at_rest, px4.popen.pid))
+            handle = BoardHandle(session, session, f"PX4 SITL instance {n} ({self.build.root}), simulator "
+                                 f"tcpin:127.0.0.1:{SITL_SIMULATOR_PORT + n}, the bench's commands udpout:127.0.0.1:"
+                                 f"{BENCH_LINK_PORT + n}; QGroundControl: udp {SITL_GCS_PORT}, MAVSDK/MAVROS: udp "
+                                 f"{SITL_API_PORT + n}", process=px4, params=px4_parameters(scenario, settings.rotors))
             commands = open_link(f"udpout:127.0.0.1:{BENCH_LINK_PORT + n}", tap=settings.tap)
             handle.command_session = BoardSession(commands, SIMULATED, watchdog_s=settings.watchdog_s)
             session.wait_heartbeat(self.connect_timeout_s or PX4_START_TIMEOUT_S,
                                    hint=f"PX4 did not connect; see {px4.log_path}",
                                    still_starting=px4.check_starting)
         except BaseException:
-            handle.close()
+            if handle is not None:
+                handle.close()
+            else:
+                px4.stop()
+                listener.close()
             raise
         return handle
 
