@@ -4,6 +4,8 @@ lock taken by Python code leaves it so: the test reproduces that state with the 
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import threading
 import time
 
@@ -53,3 +55,27 @@ def test_settle_on_work_already_ended_returns_at_once():
     started = time.monotonic()
     assert done.settle() is True
     assert time.monotonic() - started < 0.1
+
+
+ENDED_LONG_AGO = """
+import threading, time
+from hil.host.beside import Beside
+done = Beside(lambda: None, "quick")
+done()
+# threads alive together take fresh stacks; as they end glibc's stack cache (40 MiB) overflows and unmaps the oldest,
+# the quick thread's with its descriptor
+threads = [threading.Thread(target=time.sleep, args=(0.2,)) for _ in range(16)]
+for thread in threads:
+    thread.start()
+for thread in threads:
+    thread.join()
+print(done.settle())
+"""
+
+
+def test_settle_on_work_whose_thread_ended_long_ago_reads_no_freed_memory():
+    """Seen in a clean CI run: a run's end settled a thread that had ended, through its freed descriptor
+    (`pthread_getcpuclockid` of its handle), and the test process died of SIGSEGV in libc. In a process of its own:
+    with the old way this exits by SIGSEGV (-11)."""
+    ran = subprocess.run([sys.executable, "-c", ENDED_LONG_AGO], capture_output=True, text=True, timeout=60)
+    assert (ran.returncode, ran.stdout.strip()) == (0, "True"), ran.stderr

@@ -21,10 +21,18 @@ class Beside:
     def __init__(self, work: Callable[[], None], name: str) -> None:
         self._work = work
         self._failure: list[BaseException] = []
+        # the thread's CPU clock, named by its kernel thread id (taken by the thread itself): `pthread_getcpuclockid`
+        # of a thread that has ended reads its freed descriptor, which killed a test process (SIGSEGV in libc, a
+        # clean CI run); a clock named by the id of an ended thread only fails to read
+        self._cpu_clock = -1
+        self._clock_named = threading.Event()
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
+        self._clock_named.wait()
 
     def _run(self) -> None:
+        self._cpu_clock = time.pthread_getcpuclockid(threading.get_ident())
+        self._clock_named.set()
         try:
             self._work()
         except BaseException as exc:  # raised where the caller waits for it
@@ -43,9 +51,8 @@ class Beside:
         into a run's start left `hil run` waiting here until the test's 60 s ran out, once in a clean CI run).
         Exiting while the thread computes inside numba's compiler killed the process (SIGSEGV, SIGABRT): hence
         waiting for as long as it computes."""
-        thread = self._thread
+        thread, cpu_clock = self._thread, self._cpu_clock
         try:
-            cpu_clock = time.pthread_getcpuclockid(thread.ident or 0)
             cpu_s, still_since = time.clock_gettime(cpu_clock), time.monotonic()
             while True:
                 thread.join(_LOOK_S)
