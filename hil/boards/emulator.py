@@ -19,7 +19,7 @@ from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import FdTransport
 from hil.boards.forked_emulator import ForkedEmulator, fork_emulator
 from hil.boards.gcs_relay import DEFAULT_GCS
-from hil.boards.handle import BoardHandle, ChildProcess
+from hil.boards.handle import BoardHandle, ChildProcess, abandon_attach
 from hil.boards.target import BoardPolicy, GroundTruthUse, LinkSettings
 from hil.host.process_cpu import cpu_schedule, scheduler_state
 from hil.scenario.plant import RotorGeometry
@@ -143,11 +143,7 @@ class EmulatorTarget:
             session.wait_heartbeat(self.connect_timeout_s or EMULATOR_START_S, still_starting=still_starting,
                                    hint=f"the emulator did not start; see {run_dir / 'emulator.log'}")
         except BaseException:
-            if handle is not None:
-                handle.close()
-            else:
-                process.stop()
-                pair.master.close()
+            abandon_attach(handle, process, pair.master)
             raise
         finally:
             pair.release_slave()  # from now on the emulator's end closing reads as LinkLost

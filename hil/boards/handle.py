@@ -28,6 +28,10 @@ class ChildProcess(Protocol):
     def kill(self) -> None: ...
 
 
+class Closable(Protocol):
+    def close(self) -> None: ...
+
+
 class BoardProcess(Protocol):
     """A board process the bench started (the emulator, PX4) and stops at the end of the run."""
 
@@ -97,3 +101,13 @@ class BoardHandle:
             session.link.close()
         if self.gcs is not None:
             self.gcs.close()
+
+
+def abandon_attach(handle: BoardHandle | None, process: BoardProcess, link: Closable) -> None:
+    """An attach stopped once its board's process started (a failure, or a stop signal landing anywhere in it): the
+    handle closed once there is one, else the process stopped and the link closed, so that nothing is left running."""
+    if handle is not None:
+        handle.close()
+    else:
+        process.stop()
+        link.close()

@@ -10,7 +10,7 @@ from pathlib import Path
 from firmware_interface.board import ON_OWN_CLOCK, BoardSession
 from firmware_interface.link import Link, open_pty_pair
 from hil.boards.gcs_relay import DEFAULT_GCS
-from hil.boards.handle import BoardHandle
+from hil.boards.handle import BoardHandle, abandon_attach
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
 from hil.boards.px4.hitl_startup import write_hitl_startup
 from hil.boards.px4.parameters import battery_parameters, px4_parameters, rotor_parameters
@@ -62,11 +62,7 @@ class Px4HitlTarget:
                                    hint=f"is {self.build.root} a px4_sitl_nolockstep build? see {px4.log_path}",
                                    still_starting=px4.check_starting)
         except BaseException:
-            if handle is not None:
-                handle.close()
-            else:
-                px4.stop()
-                pair.master.close()
+            abandon_attach(handle, px4, pair.master)
             raise
         finally:
             pair.release_slave()  # PX4 holds its end now

@@ -20,7 +20,7 @@ from pathlib import Path
 from firmware_interface.board import SIMULATED, BoardSession
 from firmware_interface.board_dropped_reply import DroppedReplies
 from firmware_interface.link import Link, LinkError, TcpServerTransport, open_link
-from hil.boards.handle import BoardHandle
+from hil.boards.handle import BoardHandle, abandon_attach
 from hil.boards.px4 import Px4Build, Px4Process, claim_instance
 from hil.boards.px4.parameters import px4_parameters, sitl_start_parameters, write_sitl_start_parameters
 from hil.boards.px4.process import child_setup
@@ -90,11 +90,7 @@ class Px4SitlTarget:
                                    hint=f"PX4 did not connect; see {px4.log_path}",
                                    still_starting=px4.check_starting)
         except BaseException:
-            if handle is not None:
-                handle.close()
-            else:
-                px4.stop()
-                listener.close()
+            abandon_attach(handle, px4, listener)
             raise
         return handle
 
