@@ -18,11 +18,19 @@ from pymavlink.dialects.v20 import common
 
 from firmware_interface.compiled_code import CompiledCode
 from firmware_interface.hil_codec import ACTUATOR_FLAG_LOCKSTEP, MODE_FLAG_ARMED, ActuatorOutputs
-from firmware_interface.link import frame_packing, scanner
-from firmware_interface.link.frame_packing import PAYLOAD, PAYLOAD_V1, STX_V2, crc_x25, get_f32, get_u64, payload_of
-from firmware_interface.link.scanner import CRC_LEN, INCOMPAT_SIGNED, SIGNATURE_LEN, STX_V1
+from firmware_interface.link import frame_packing
+from firmware_interface.link.frame_packing import (
+    CRC_LEN,
+    PAYLOAD,
+    SIGNATURE_LEN,
+    STX_V2,
+    frame_end,
+    get_f32,
+    get_u64,
+    payload_of,
+)
 
-REPLY = CompiledCode("actuator-reply", (Path(__file__), Path(frame_packing.__file__), Path(scanner.__file__)))
+REPLY = CompiledCode("actuator-reply", (Path(__file__), Path(frame_packing.__file__)))
 MSGID, CRC_EXTRA, PAYLOAD_SIZE = (common.MAVLink_hil_actuator_controls_message.id,
                                   common.MAVLink_hil_actuator_controls_message.crc_extra,
                                   common.MAVLink_hil_actuator_controls_message.unpacker.size)
@@ -39,26 +47,13 @@ def read_reply(data: bytes, low: float, payload: np.ndarray, fields: np.ndarray,
     its time, flags, mode and sender into `fields` (uint64), and its controls into `controls` clipped to PX4's
     ranges: `low`..1 (0 for a motor, -1 for a reversible one), and 0 for a value that is not a number (a broken
     board). `payload`: room for the payload (PAYLOAD_SIZE bytes)."""
-    size = len(data)
-    if size < PAYLOAD_V1 + 1 + CRC_LEN:
-        return False
-    v2 = data[0] == STX_V2
-    if not v2 and data[0] != STX_V1:
-        return False
-    length = int(data[1])
-    incompat = int(data[2]) if v2 else 0
-    end = (PAYLOAD if v2 else PAYLOAD_V1) + length + CRC_LEN
-    signed = incompat & INCOMPAT_SIGNED != 0
-    if length == 0 or length > PAYLOAD_SIZE or incompat & ~INCOMPAT_SIGNED or size != end + signed * SIGNATURE_LEN:
-        return False
-    msgid = (int(data[7]) | int(data[8]) << 8 | int(data[9]) << 16) if v2 else int(data[5])
-    if msgid != MSGID or crc_x25(data, 1, end - 2, CRC_EXTRA) != (int(data[end - 2]) | int(data[end - 1]) << 8):
+    if frame_end(data, 0, MSGID, CRC_EXTRA, PAYLOAD_SIZE) != len(data):
         return False
     payload_of(data, payload)
     fields[T_US] = get_u64(payload, 0)
     fields[FLAGS] = get_u64(payload, 8)
     fields[MODE] = payload[16 + 4 * CONTROLS]
-    fields[SYSTEM_ID] = data[5] if v2 else data[3]
+    fields[SYSTEM_ID] = data[5] if data[0] == STX_V2 else data[3]
     for k in range(CONTROLS):
         value = get_f32(payload, 16 + 4 * k)
         controls[k] = (1.0 if value > 1.0 else max(value, low)) if math.isfinite(value) else 0.0

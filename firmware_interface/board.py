@@ -197,15 +197,15 @@ class BoardSession:
             self.inbox.append(msg)
         self.report.latest[kind] = msg
 
-    def _read_reply(self, data: bytes) -> bool:
+    def _read_reply(self, data: bytes) -> tuple[int, ...]:
         """The link's reader of a read that is one whole HIL_ACTUATOR_CONTROLS frame of the board's: the lockstep
-        reply, handled in one compiled call (`actuator_reply`). False leaves the read to the scanner."""
+        reply, handled in one compiled call (`actuator_reply`). () leaves the read to the scanner."""
         outputs, info = self.actuator_reader.read(data), self.report.info
         if outputs is None or (info is not None and self.actuator_reader.system_id != info.system_id):
-            return False
+            return ()
         self._last_rx = self.clock()
         self._take_reply(outputs)
-        return True
+        return (len(data),)
 
     def _take_reply(self, outputs: codec.ActuatorOutputs | None) -> None:
         if outputs is None:

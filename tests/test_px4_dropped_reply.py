@@ -63,11 +63,11 @@ class Px4LosingOneReply:
                     return [m for m in messages if m is not message]
             return messages
 
-        def losing_one_alone(data: bytes) -> bool:
+        def losing_one_alone(data: bytes) -> tuple[int, ...]:
             reply = None if self.lost_us else replies.read(data)
             if reply is not None and reply.t_us >= LOST_AT_US:
                 self.lost_us.append(reply.t_us)
-                return True
+                return (len(data),)
             return read_whole(data)
 
         self.monkeypatch.setattr(link, "receive", losing_one)

@@ -59,6 +59,7 @@ from firmware_interface.emulator.navigator import NAVIGATOR_PERIOD_US
 from firmware_interface.emulator.offboard import OffboardInput
 from firmware_interface.emulator.params import ParameterServer
 from firmware_interface.emulator.px4_params import Px4Values
+from firmware_interface.emulator.step_read import TARGET_SYSTEM, StepReader
 from firmware_interface.emulator.telemetry import Telemetry
 from firmware_interface.emulator.truth import OdometryReader
 from firmware_interface.geodesy import LocalFrame
@@ -109,6 +110,8 @@ class EmulatedBoard(Flight):
         super().__init__()
         self.telemetry = Telemetry(self)
         self.param_server = ParameterServer(self)
+        self.step_reader = StepReader()
+        self.link.whole_frame_reader = self._read_step
 
     # --- main loop ----------------------------------------------------------------------------------------
     def run(self, should_stop: Callable[[], bool] = lambda: False) -> str:
@@ -125,7 +128,7 @@ class EmulatedBoard(Flight):
     def serve_once(self, timeout_s: float) -> None:
         """One turn of the loop: the wall clock's business, then what one read brought, answered in one write."""
         self._housekeeping()
-        self._answer(self.link.receive(timeout_s))
+        self._answer(timeout_s)
 
     def _housekeeping(self) -> None:
         now = self.clock()
@@ -136,7 +139,7 @@ class EmulatedBoard(Flight):
             self.last_heartbeat = now
         if self.armed and self._sensors_silent_at(now):
             # what came while this process waited for a CPU first: a starved emulator is no lost link
-            self._answer(self.link.receive(0.0))
+            self._answer(0.0)
             if self.armed and self._sensors_silent_at(now):
                 self.disarm()
                 self.status(MAV_SEVERITY_CRITICAL,
@@ -147,20 +150,37 @@ class EmulatedBoard(Flight):
         failsafe_s = self.config.failsafe_s
         return failsafe_s is not None and now - self.last_sensor_wall > failsafe_s
 
-    def _answer(self, messages: list[Message]) -> None:
-        """Everything answered to one read leaves in one write: the bench wakes once a step, for the reply with
-        that step's telemetry, instead of once for each message."""
+    def _answer(self, timeout_s: float) -> None:
+        """What one read within `timeout_s` brings, answered in one write: the bench wakes once a step, for the
+        reply with that step's telemetry, instead of once for each message. A lockstep step's read is handled as
+        the link reads it (`_read_step`), the rest message by message."""
         self.link.begin_batch()
         try:
-            for msg in messages:
+            for msg in self.link.receive(timeout_s):
                 self.handle(msg)
         finally:
             self.link.flush()
 
+    def _read_step(self, data: bytes) -> tuple[int, ...]:
+        """The link's reader of a read that is one lockstep step of the bench's (`step_read`): its setpoint, then
+        its HIL_SENSOR, handled as `handle` handles their messages, without making them. () leaves the read to the
+        scanner."""
+        reader = self.step_reader
+        start = reader.sensor_start(data)
+        if start < 0:
+            return ()
+        if start == 0:
+            self._on_sensor_frame(data)
+            return (len(data),)
+        if reader.setpoint[TARGET_SYSTEM] == self.config.system_id:
+            self.offboard.take(reader.setpoint, self.now_us)
+        self._on_sensor_frame(data[start:])
+        return (start, len(data))
+
     def handle(self, msg: Message) -> None:
         kind = msg.get_type()
         if kind == "HIL_SENSOR":
-            self._on_sensor(msg)
+            self._on_sensor_frame(bytes(msg.get_msgbuf()))
         elif kind == "HIL_GPS":
             self._on_gps(msg)
         elif kind == "SET_POSITION_TARGET_LOCAL_NED":
@@ -185,9 +205,9 @@ class EmulatedBoard(Flight):
             self.health.on_battery(msg)
 
     # --- the control step ---------------------------------------------------------------------------------
-    def _on_sensor(self, msg: Message) -> None:
+    def _on_sensor_frame(self, frame: bytes) -> None:
         estimator = self.estimator
-        estimate = estimator.on_sensor_frame(bytes(msg.get_msgbuf()))
+        estimate = estimator.on_sensor_frame(frame)
         self.last_sensor_wall = self.clock()
         t_us = estimator.t_us
         assert t_us is not None

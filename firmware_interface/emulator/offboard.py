@@ -20,6 +20,7 @@ from pymavlink.dialects.v20.common import MAV_FRAME_LOCAL_NED
 
 from firmware_interface.emulator.control import Setpoint
 from firmware_interface.emulator.navigator import Navigator
+from firmware_interface.emulator.step_read import AFX, COORDINATE_FRAME, SETPOINT_FIELD_NAMES, TYPE_MASK, VX, YAW, X
 from firmware_interface.emulator.trajectory import Move, velocity_step
 
 IGNORE_POSITION, IGNORE_VELOCITY, IGNORE_ACCELERATION, IGNORE_YAW = 0b111, 0b111 << 3, 0b111 << 6, 1 << 10
@@ -37,22 +38,29 @@ class OffboardInput:
         self.changes = 0  # counts position-only targets that differ from the one before
 
     def receive(self, msg: Any, now_us: int) -> None:
-        if msg.coordinate_frame != MAV_FRAME_LOCAL_NED:
+        """A SET_POSITION_TARGET_LOCAL_NED message (its fields in `step_read`'s order, then as `take`)."""
+        self.take(np.array([getattr(msg, name) for name in SETPOINT_FIELD_NAMES], dtype=float), now_us)
+
+    def take(self, fields: np.ndarray, now_us: int) -> None:
+        """A SET_POSITION_TARGET_LOCAL_NED's fields (`step_read`'s layout), received at `now_us`."""
+        if fields[COORDINATE_FRAME] != MAV_FRAME_LOCAL_NED:
             return
-        mask = msg.type_mask
+        mask = int(fields[TYPE_MASK])
         has_pos, has_vel, has_acc = (not mask & IGNORE_POSITION, not mask & IGNORE_VELOCITY,
                                      not mask & IGNORE_ACCELERATION)
         kind = ("full" if has_pos and has_vel and has_acc else "position_velocity" if has_pos and has_vel
                 else "position" if has_pos else "velocity" if has_vel else "")
         if not kind:
             return
-        setpoint = Setpoint(np.array((msg.x, msg.y, msg.z)), np.array((msg.vx, msg.vy, msg.vz)),
-                            np.array((msg.afx, msg.afy, msg.afz)) if has_acc else np.zeros(3), msg.yaw)
-        if kind == "position" and (self.kind != kind or self.target != (msg.x, msg.y, msg.z)):
-            self.target = (msg.x, msg.y, msg.z)
+        pos_ned = fields[X:X + 3].copy()
+        setpoint = Setpoint(pos_ned, fields[VX:VX + 3].copy(), fields[AFX:AFX + 3].copy() if has_acc else np.zeros(3),
+                            float(fields[YAW]))
+        north, east, down = pos_ned.tolist()
+        if kind == "position" and (self.kind != kind or self.target != (north, east, down)):
+            self.target = (north, east, down)
             self.changes += 1
         self.setpoint, self.kind, self.received_us = setpoint, kind, now_us
-        self.yaw = None if mask & IGNORE_YAW else float(msg.yaw)
+        self.yaw = None if mask & IGNORE_YAW else setpoint.yaw
 
     def fresh(self, now_us: int, timeout_s: float) -> bool:
         return self.received_us is not None and (now_us - self.received_us) * 1e-6 <= timeout_s

@@ -14,7 +14,7 @@ import sys
 
 import numpy as np
 
-from firmware_interface.emulator import reply_frames
+from firmware_interface.emulator import reply_frames, step_read
 from firmware_interface.emulator.compiled import FLIGHT_CODE
 from firmware_interface.emulator.config import EmulatorConfig, build_config
 from firmware_interface.emulator.control import Setpoint, VehicleState
@@ -64,6 +64,7 @@ def exercise_flight_code(config: EmulatorConfig) -> None:
                    reply.origin, reply.home_d, reply.eta_cmd, reply.thrust, reply.debug, reply.debug_name, motors)
     quintic_sample(np.zeros((3, 6)), 0.0)  # the navigator's moves
     OdometryReader().exercise()  # the true state (state_source truth)
+    step_read.warm_up()  # the bench's lockstep reads
 
 
 def main() -> int:

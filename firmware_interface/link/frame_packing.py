@@ -13,10 +13,12 @@ import numpy as np
 
 from firmware_interface.compiled_code import CompiledCode
 
-STX_V2 = 0xFD
+STX_V2, STX_V1 = 0xFD, 0xFE
 PAYLOAD = 10  # header bytes before the payload
 PAYLOAD_V1 = 6  # the same in a MAVLink 1 frame
 OVERHEAD = 12  # header and checksum
+CRC_LEN, SIGNATURE_LEN = 2, 13
+INCOMPAT_SIGNED = 0x01  # the one incompatibility flag MAVLink 2 defines
 inline = CompiledCode.inline
 
 
@@ -81,6 +83,32 @@ def payload_of(frame: bytes, payload: np.ndarray) -> None:
     size = frame[1]
     for k in range(payload.size):
         payload[k] = frame[header + k] if k < size else 0
+
+
+@inline
+def frame_end(data: bytes, at: int, msgid: int, crc_extra: int, payload_size: int) -> int:
+    """Where the frame that starts at `data[at]` ends when it is one whole, valid frame of message `msgid`; -1 when
+    it is not. The scanner's checks: MAVLink 2, signed or not, or MAVLink 1; LEN within the message's
+    `payload_size` and not 0; no unknown incompatibility flag; the X.25 checksum with CRC_EXTRA (a signature is not
+    verified, as the scanner does not)."""
+    size = len(data)
+    if size - at < PAYLOAD_V1 + 1 + CRC_LEN:
+        return -1
+    v2 = data[at] == STX_V2
+    if not v2 and data[at] != STX_V1:
+        return -1
+    length = int(data[at + 1])
+    incompat = int(data[at + 2]) if v2 else 0
+    if length == 0 or length > payload_size or incompat & ~INCOMPAT_SIGNED:
+        return -1
+    end = at + (PAYLOAD if v2 else PAYLOAD_V1) + length + CRC_LEN
+    whole = end + (SIGNATURE_LEN if incompat & INCOMPAT_SIGNED else 0)
+    if whole > size:  # checked before the id is read: the header's bytes are then all there
+        return -1
+    frame_id = (int(data[at + 7]) | int(data[at + 8]) << 8 | int(data[at + 9]) << 16) if v2 else int(data[at + 5])
+    if frame_id != msgid or crc_x25(data, at + 1, end - 2, crc_extra) != (int(data[end - 2]) | int(data[end - 1]) << 8):
+        return -1
+    return whole
 
 
 @inline

@@ -23,8 +23,9 @@ from firmware_interface.link.transports import SpinWait, Transport
 Message: TypeAlias = Any  # a pymavlink MAVLink_message: pymavlink carries no type information
 # sees every frame sent and every frame accepted, those of one write or one read together, e.g. a TlogWriter
 FrameTap = Callable[[Sequence[bytes]], None]
-# takes a read that is one whole frame its user handles at once (a lockstep reply): True when it did
-WholeFrameReader = Callable[[bytes], bool]
+# takes a read made of whole frames its user handles at once (a lockstep reply; a lockstep step's frames): the
+# frames' ends in the read when it took them, () when the read goes the scanner's way
+WholeFrameReader = Callable[[bytes], tuple[int, ...]]
 # packs one frame at the start of a buffer: (buffer, seq, system id, component id, *fields) -> its length
 Packer = Callable[..., int]
 PACKED_MAX = 512  # bytes: the longest frame a packer writes (firmware_interface.hil_frames), with room
@@ -155,15 +156,19 @@ class Link:
                 return [m for m in (self._decode(f) for f in frames) if m is not None]
 
     def _read_whole(self, data: bytes) -> bool:
-        """`data` taken by the whole-frame reader, with nothing held from an earlier read: counted and tapped as a
-        frame the scanner accepted and its user decoded."""
+        """`data` taken by the whole-frame reader, with nothing held from an earlier read: its frames counted and
+        tapped as frames the scanner accepted and its user decoded."""
         reader = self.whole_frame_reader
-        if reader is None or self.scanner.pending_bytes or not reader(data):
+        if reader is None or self.scanner.pending_bytes:
             return False
-        self.scanner.frames_accepted += 1
-        self.ids_seen.add(frame_msgid(data))
+        ends = reader(data)
+        if not ends:
+            return False
+        self.scanner.frames_accepted += len(ends)
+        frames = (data,) if len(ends) == 1 else [data[start:end] for start, end in zip((0, *ends), ends, strict=False)]
+        self.ids_seen.update(map(frame_msgid, frames))
         if self.tap is not None:
-            self.tap((data,))
+            self.tap(frames)
         return True
 
     def _decode(self, frame: bytes) -> Message | None:

@@ -17,12 +17,18 @@ import fastcrc
 import numpy as np
 
 from firmware_interface.link.dialect import SPECS
-from firmware_interface.link.frame_packing import OVERHEAD
+from firmware_interface.link.frame_packing import (
+    CRC_LEN,
+    INCOMPAT_SIGNED,
+    OVERHEAD,
+    PAYLOAD,
+    PAYLOAD_V1,
+    SIGNATURE_LEN,
+    STX_V2,
+)
 from firmware_interface.link.frame_scan import CRC_EXTRA, FRAMES_PER_CALL, FULL_PAYLOAD, clean_frames
 
-STX_V2, STX_V1 = 0xFD, 0xFE
-V2_HEADER, V1_HEADER, CRC_LEN, SIGNATURE_LEN = 10, 6, 2, 13
-INCOMPAT_SIGNED = 0x01
+V2_HEADER, V1_HEADER = PAYLOAD, PAYLOAD_V1
 _START = re.compile(rb"[\xfd\xfe]")
 _crc16 = fastcrc.crc16.mcrf4xx
 
