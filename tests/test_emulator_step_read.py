@@ -1,6 +1,7 @@
 """The emulator's lockstep read (`step_read`): a read of one bench step, checked and taken apart in one compiled call,
 against pymavlink's packing and decoding of the same frames; and an emulator that reads its steps that way answering
-byte for byte as one that reads every frame through the scanner and its messages."""
+byte for byte as one that reads every frame through the scanner and its messages, flying on its estimate and on the
+true state."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 from pymavlink.dialects.v20 import common
 
 from firmware_interface.emulator import EmulatedBoard, build_config
-from firmware_interface.emulator.step_read import SETPOINT_FIELD_NAMES, StepReader
+from firmware_interface.emulator.step_read import SETPOINT, SETPOINT_FIELD_NAMES, TRUTH, StepReader
 from firmware_interface.link import Link, open_pty_pair
 from firmware_interface.link.transports import SerialTransport
 from tests.test_emulator_sensor_frame import flight_frames
@@ -22,6 +23,14 @@ FULL_SETPOINT = {"time_boot_ms": 1234, "target_system": 1, "target_component": 1
                  "coordinate_frame": common.MAV_FRAME_LOCAL_NED, "type_mask": 0, "x": 1.5, "y": -2.25, "z": -12.0,
                  "vx": 0.1, "vy": -0.2, "vz": 0.3, "afx": 0.01, "afy": -0.02, "afz": 0.03, "yaw": 1.2, "yaw_rate": 0.0}
 SENSOR = flight_frames()[0]
+
+
+def odometry_frame(t_us: int, north_m: float = 0.1) -> bytes:
+    """The true state as the bench sends it to an emulator flying on it (MAV_FRAME_LOCAL_NED, body rates in FRD)."""
+    message = common.MAVLink_odometry_message(t_us, common.MAV_FRAME_LOCAL_NED, common.MAV_FRAME_BODY_FRD, north_m,
+                                              0.2, -3.0, [0.9990482, 0.0261769, 0.0174524, 0.0261769], 0.01, -0.02,
+                                              0.03, 0.001, -0.002, 0.003, [float("nan")] * 21, [float("nan")] * 21)
+    return bytes(message.pack(BENCH))
 
 
 def setpoint_frame(mavlink1: bool = False, **fields: float) -> bytes:
@@ -41,9 +50,18 @@ SETPOINTS = {
 def test_a_setpoint_then_a_sensor_frame_is_one_step_and_its_fields_are_pymavlinks(name):
     setpoint = SETPOINTS[name]
     reader = StepReader()
-    assert reader.sensor_start(setpoint + SENSOR) == len(setpoint)
+    assert reader.read(setpoint + SENSOR) == SETPOINT
+    assert reader.ends.tolist() == [len(setpoint), len(setpoint), len(setpoint + SENSOR)]
     decoded = common.MAVLink(None).decode(bytearray(setpoint))
     assert reader.setpoint.tolist() == [float(getattr(decoded, field)) for field in SETPOINT_FIELD_NAMES]
+
+
+def test_the_true_states_odometry_between_the_setpoint_and_the_sensor_frame_is_one_step_too():
+    reader, setpoint, truth = StepReader(), SETPOINTS["every field"], odometry_frame(4000)
+    assert reader.read(setpoint + truth + SENSOR) == SETPOINT | TRUTH
+    assert reader.ends.tolist() == [len(setpoint), len(setpoint + truth), len(setpoint + truth + SENSOR)]
+    assert reader.read(truth + SENSOR) == TRUTH
+    assert reader.ends.tolist() == [0, len(truth), len(truth + SENSOR)]
 
 
 def test_the_trimmed_setpoint_is_what_it_says():
@@ -54,7 +72,8 @@ def test_the_trimmed_setpoint_is_what_it_says():
 def test_a_sensor_frame_alone_is_one_step_from_its_first_byte():
     reader = StepReader()
     reader.setpoint[:] = -7.0
-    assert reader.sensor_start(SENSOR) == 0
+    assert reader.read(SENSOR) == 0
+    assert reader.ends.tolist() == [0, 0, len(SENSOR)]
     assert np.all(reader.setpoint == -7.0)  # no setpoint read: the last one's fields stay
 
 
@@ -78,20 +97,23 @@ NOT_ONE_STEP = {
     "a byte more": SETPOINTS["every field"] + SENSOR + b"\x00",
     "a byte of garbage first": b"\x55" + SETPOINTS["every field"] + SENSOR,
     "an unknown incompatibility flag": SENSOR[:2] + b"\x02" + SENSOR[3:],
+    "the ODOMETRY before the setpoint": odometry_frame(4000) + SETPOINTS["every field"] + SENSOR,
+    "two ODOMETRY frames": odometry_frame(4000) * 2 + SENSOR,
+    "the ODOMETRY alone": odometry_frame(4000),
 }
 
 
 @pytest.mark.parametrize("name", NOT_ONE_STEP)
 def test_what_is_not_one_step_is_left_to_the_scanner(name):
-    assert StepReader().sensor_start(NOT_ONE_STEP[name]) == -1
+    assert StepReader().read(NOT_ONE_STEP[name]) == -1
 
 
 class ServedBoard:
     """An emulator on a real pty, served one read at a time from the test's thread, and the bench's end of it."""
 
-    def __init__(self, whole_steps: bool) -> None:
+    def __init__(self, whole_steps: bool, state_source: str) -> None:
         pair = open_pty_pair()
-        self.board = EmulatedBoard(Link(SerialTransport(pair.slave_path)), build_config(),
+        self.board = EmulatedBoard(Link(SerialTransport(pair.slave_path)), build_config({"state_source": state_source}),
                                    repeat_boot_heartbeat=False)
         pair.release_slave()
         self.bench = pair.master
@@ -107,14 +129,14 @@ class ServedBoard:
         self.frames_in: list[bytes] = []  # what the link's tap saw of the bench's frames (a run's tlog sees them)
         self.board.link.tap = lambda frames: self.frames_in.extend(f for f in frames if f[6] != BOARD_COMPONENT)
         if whole_steps:
-            sensor_start = self.board.step_reader.sensor_start
+            read = self.board.step_reader.read
 
             def counted(data: bytes) -> int:
-                start = sensor_start(data)
-                self.steps_taken_whole += start >= 0
-                return start
+                found = read(data)
+                self.steps_taken_whole += found >= 0
+                return found
 
-            self.board.step_reader.sensor_start = counted  # type: ignore[method-assign]
+            self.board.step_reader.read = counted  # type: ignore[method-assign]
         else:
             self.board.link.whole_frame_reader = None
 
@@ -132,12 +154,14 @@ class ServedBoard:
         self.bench.close()
 
 
-def test_an_emulator_taking_whole_steps_answers_byte_for_byte_as_one_reading_every_frame_as_a_message():
-    whole, by_message = ServedBoard(whole_steps=True), ServedBoard(whole_steps=False)
+@pytest.mark.parametrize("state_source", ["estimator", "truth"])
+def test_an_emulator_taking_whole_steps_answers_byte_for_byte_as_one_reading_every_frame_as_a_message(state_source):
+    whole, by_message = ServedBoard(True, state_source), ServedBoard(False, state_source)
     try:
         for k, sensor in enumerate(flight_frames()[:300]):
             setpoint = setpoint_frame(time_boot_ms=4 * k, x=0.01 * k, yaw=0.001 * k)
-            write = sensor if k % 3 == 0 else setpoint + sensor  # every third step without a setpoint
+            truth = odometry_frame(4000 * (k + 1), 0.001 * k) if state_source == "truth" else b""
+            write = truth + sensor if k % 3 == 0 else setpoint + truth + sensor  # every third without a setpoint
             before = whole.writes
             assert whole.exchange(write) == by_message.exchange(write), f"step {k}"
             assert whole.writes == by_message.writes
@@ -145,11 +169,17 @@ def test_an_emulator_taking_whole_steps_answers_byte_for_byte_as_one_reading_eve
             if k == 0:  # the origin and the magnetic field, after the first sensor frame: alignment can happen
                 assert whole.exchange(GPS) == by_message.exchange(GPS)
         assert whole.steps_taken_whole == 300
-        assert whole.frames_in == by_message.frames_in and len(whole.frames_in) == 300 + 200 + 1
+        assert whole.frames_in == by_message.frames_in
+        assert len(whole.frames_in) == 300 + 200 + 1 + (300 if state_source == "truth" else 0)
         assert whole.board.link.scanner.frames_accepted == by_message.board.link.scanner.frames_accepted
         assert whole.board.link.ids_seen == by_message.board.link.ids_seen
         assert whole.board.estimator.aligned
         assert whole.board.estimator.x.tobytes() == by_message.board.estimator.x.tobytes()
+        if state_source == "truth":
+            flown_on, read_on = whole.board.truth, by_message.board.truth
+            assert flown_on is not None and read_on is not None
+            last_sent = [float(np.float32(v)) for v in (0.299, 0.2, -3.0)]  # the last step's, as float32 carries it
+            assert flown_on.pos_ned.tolist() == read_on.pos_ned.tolist() == last_sent
         taken, read = whole.board.offboard, by_message.board.offboard
         assert taken.setpoint is not None and read.setpoint is not None
         assert (taken.kind, taken.received_us, taken.yaw) == (read.kind, read.received_us, read.yaw)

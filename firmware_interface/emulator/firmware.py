@@ -59,7 +59,7 @@ from firmware_interface.emulator.navigator import NAVIGATOR_PERIOD_US
 from firmware_interface.emulator.offboard import OffboardInput
 from firmware_interface.emulator.params import ParameterServer
 from firmware_interface.emulator.px4_params import Px4Values
-from firmware_interface.emulator.step_read import TARGET_SYSTEM, StepReader
+from firmware_interface.emulator.step_read import SETPOINT, TARGET_SYSTEM, TRUTH, StepReader
 from firmware_interface.emulator.telemetry import Telemetry
 from firmware_interface.emulator.truth import OdometryReader
 from firmware_interface.geodesy import LocalFrame
@@ -162,20 +162,25 @@ class EmulatedBoard(Flight):
             self.link.flush()
 
     def _read_step(self, data: bytes) -> tuple[int, ...]:
-        """The link's reader of a read that is one lockstep step of the bench's (`step_read`): its setpoint, then
-        its HIL_SENSOR, handled as `handle` handles their messages, without making them. () leaves the read to the
-        scanner."""
+        """The link's reader of a read that is one lockstep step of the bench's (`step_read`): its setpoint, its
+        ODOMETRY, its HIL_SENSOR, handled as `handle` handles their messages, without making them. () leaves the
+        read to the scanner."""
         reader = self.step_reader
-        start = reader.sensor_start(data)
-        if start < 0:
+        found = reader.read(data)
+        if found < 0:
             return ()
-        if start == 0:
+        if found == 0:
             self._on_sensor_frame(data)
             return (len(data),)
-        if reader.setpoint[TARGET_SYSTEM] == self.config.system_id:
+        setpoint_end, truth_end, end = reader.ends.tolist()
+        if found & SETPOINT and reader.setpoint[TARGET_SYSTEM] == self.config.system_id:
             self.offboard.take(reader.setpoint, self.now_us)
-        self._on_sensor_frame(data[start:])
-        return (start, len(data))
+        if found & TRUTH:
+            self.truth = self.odometry.state(data[setpoint_end:truth_end])
+        self._on_sensor_frame(data[truth_end:])
+        if found == SETPOINT:
+            return (setpoint_end, end)
+        return (truth_end, end) if found == TRUTH else (setpoint_end, truth_end, end)
 
     def handle(self, msg: Message) -> None:
         kind = msg.get_type()
