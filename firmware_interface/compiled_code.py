@@ -8,7 +8,7 @@ A `CompiledCode` is a group of sources (a package, or a few modules) whose funct
 Once a group is frozen (`freeze`: after a process's warm-up) a function compiled for one signature is called
 through that signature's machine code directly. numba's dispatcher otherwise works out every argument's type on
 every call to pick the machine code, ~0.3 µs a call plus ~0.03 µs an argument (a control law's 22 arguments: 1.6
-µs a call against 1.0 direct), and a step makes a dozen such calls on each side of the link. Called directly, an
+µs a call against 1.0 direct), and a step makes about six such calls on each side of the link. Called directly, an
 argument of another type would not be refused but read wrongly (an int64 array as float64, a strided view as
 contiguous); so every `CHECK_EVERY`-th call, and the first after the freeze, still goes through the dispatcher,
 which raises TypeError for types it was not compiled for, as it did for every call before.
