@@ -83,7 +83,8 @@ class Px4Log:
         (path,) = sorted((run_dir / "px4" / "log").rglob("*.ulg"))
         self.ulog = ULog(str(path), ["vehicle_status", *topics])
         self.offset_us = 0
-        if json.loads((run_dir / "meta.json").read_text())["pacing"] != "lockstep":
+        self.lockstep = json.loads((run_dir / "meta.json").read_text())["pacing"] == "lockstep"
+        if not self.lockstep:
             status = self.data("vehicle_status")
             armed = int(np.argmax(status["arming_state"] == ARMED))
             self.offset_us = event_us(run_dir, "board: Armed") - int(status["timestamp"][armed])
