@@ -56,7 +56,7 @@ def test_mavsdk_takes_off_flies_offboard_setpoints_and_lands_px4_sitl(sitl, tmp_
     findings = Findings()
     try:
         url = f"udpout://127.0.0.1:{14580 + px4_instance(tmp_path / 'runs')}"
-        findings = fly_blocking(url, takeoff_offboard_and_land, 600)
+        findings = fly_blocking(url, takeoff_offboard_and_land, 600, bench)
     finally:
         out, run_dir = finish(bench, findings)
     assert findings.failures == [], findings
@@ -81,7 +81,7 @@ def test_mavsdk_flies_a_square_mission_with_rtl_while_a_second_station_is_served
         station = SecondGroundStation(f"udpout:127.0.0.1:{18570 + instance}", instance + 1)
         station.start()
         findings = fly_blocking(f"udpout://127.0.0.1:{14580 + instance}", square_mission_with_a_second_station(station),
-                                900)
+                                900, bench)
     finally:
         out, run_dir = finish(bench, findings)
     assert_the_square_flight(findings, station, out, run_dir)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import subprocess
 import time
 import warnings
 from collections.abc import Awaitable, Callable
@@ -28,6 +29,7 @@ with warnings.catch_warnings():
     from mavsdk.telemetry import LandedState
 
 EARTH_RADIUS_M = 6_371_000.0  # a local plane about home is enough for legs of tens of metres (mm at 100 m)
+BENCH_POLL_S, BENCH_GONE_GRACE_S = 0.5, 5.0  # how often the bench is looked at; a flight's time to end after it
 OFFBOARD_ACCEPTANCE_M = 0.3  # test_multicopter_offboard.cpp: acceptance_radius
 # test_multicopter_offboard.cpp "Offboard position control": take-off point, three setpoints, back (N, E, D, yaw)
 OFFBOARD_SETPOINTS = ((0.0, 0.0, -2.0, 0.0), (0.0, 5.0, -2.0, 180.0), (5.0, 5.0, -4.0, 180.0), (5.0, 0.0, -4.0, 90.0),
@@ -271,14 +273,15 @@ class MavsdkTester:
         raise Required("no home position")
 
 
-async def fly(url: str, flight: Callable[[MavsdkTester], Awaitable[None]], timeout_s: float) -> Findings:
+async def fly(url: str, flight: Callable[[MavsdkTester], Awaitable[None]], timeout_s: float,
+              bench_exit: Callable[[], int | None]) -> Findings:
     """Connect to `url` (MAVSDK 3: udpin://0.0.0.0:PORT), fly `flight`, and return what was found (a failed
-    REQUIRE is in the failures, as its own line)."""
+    REQUIRE is in the failures, as its own line). `bench_exit` is the bench's exit code once it has ended."""
     findings = Findings()
     tester = MavsdkTester(findings)
     try:
         await tester.connect(url)
-        await asyncio.wait_for(flight(tester), timeout_s)
+        await asyncio.wait_for(_while_the_bench_runs(flight(tester), bench_exit), timeout_s)
     except Required as exc:
         findings.failures.append(f"REQUIRE: {exc}")
     finally:
@@ -286,5 +289,25 @@ async def fly(url: str, flight: Callable[[MavsdkTester], Awaitable[None]], timeo
     return findings
 
 
-def fly_blocking(url: str, flight: Callable[[MavsdkTester], Awaitable[None]], timeout_s: float) -> Findings:
-    return asyncio.run(fly(url, flight, timeout_s))
+async def _while_the_bench_runs(flying: Awaitable[None], bench_exit: Callable[[], int | None]) -> None:
+    """The flight, cut short BENCH_GONE_GRACE_S after the bench has ended: with the vehicle gone a MAVSDK telemetry
+    stream waits until the flight's timeout (a failed PX4 HITL flight on a stalling host held a CI run 15 minutes).
+    The grace lets a flight that ends with the run (its last wait sees the disarm) finish on its own."""
+    task = asyncio.ensure_future(flying)
+    ended_at: float | None = None
+    while True:
+        done, _ = await asyncio.wait({task}, timeout=BENCH_POLL_S)
+        if done:
+            return task.result()
+        code = bench_exit()
+        if code is not None:
+            ended_at = time.monotonic() if ended_at is None else ended_at
+            if time.monotonic() - ended_at > BENCH_GONE_GRACE_S:
+                task.cancel()
+                await asyncio.gather(task, return_exceptions=True)
+                raise Required(f"the bench ended (exit {code}) before the flight did")
+
+
+def fly_blocking(url: str, flight: Callable[[MavsdkTester], Awaitable[None]], timeout_s: float,
+                 bench: subprocess.Popen[str]) -> Findings:
+    return asyncio.run(fly(url, flight, timeout_s, bench.poll))

@@ -193,7 +193,7 @@ def fly_through_the_relay(tmp_path: Path, *board: str) -> None:
 
     findings = Findings()
     try:
-        findings = fly_blocking(f"udpin://127.0.0.1:{api_port}", flight, 900)
+        findings = fly_blocking(f"udpin://127.0.0.1:{api_port}", flight, 900, bench)
     finally:
         out, run_dir = finish(bench, findings)
     assert_the_square_flight(findings, station, out, run_dir)
