@@ -158,14 +158,19 @@ def test_sticks_and_the_ground_stations_heartbeat_reach_px4_on_its_hitl_path(hit
 
     The bench's battery does not reach PX4 on this path: mavlink_receiver.cpp's handle_message_hil_sensor (v1.15.4,
     lines 2345-2358) publishes battery_status at a fixed 16.0 V and 70 % with every HIL_SENSOR (250 Hz) on the
-    publication BATTERY_STATUS would use; the bench's pack (full, sagging under load) is overwritten at once."""
+    publication BATTERY_STATUS would use; the bench's pack (full, sagging under load) is overwritten by the next one.
+    So PX4's logged battery_status holds those fixed values, or the bench's for the moments between (the logger
+    samples at its own rate: 15 % of the samples on a stalling host, where HIL_SENSORs come in bursts)."""
     run_dir = fly("hitl_links_short", tmp_path, "--px4-hitl", str(hitl))
     px4 = Px4Log(run_dir, ["manual_control_setpoint", "failsafe_flags", "battery_status"])
     sent = recorded(run_dir, "battery")
     assert sent and min(s["remaining"] for s in sent) > HITL_FIXED_REMAINING + 0.2
     hitl_battery = px4.data("battery_status")
-    assert np.mean(np.abs(hitl_battery["voltage_v"] - HITL_FIXED_BATTERY_V) < 1e-3) > 0.99
-    assert np.mean(np.abs(hitl_battery["remaining"] - HITL_FIXED_REMAINING) < 1e-3) > 0.99
+    fixed = ((np.abs(hitl_battery["voltage_v"] - HITL_FIXED_BATTERY_V) < 1e-3)
+             & (np.abs(hitl_battery["remaining"] - HITL_FIXED_REMAINING) < 1e-3))
+    assert np.mean(fixed) > 0.5  # PX4's fixed values prevail: every HIL_SENSOR publishes them
+    sent_v = np.array([s["voltage_v"] for s in sent])
+    assert all(np.min(np.abs(sent_v - v)) < 2e-3 for v in hitl_battery["voltage_v"][~fixed])  # else the bench's
     assert np.max(px4.data("manual_control_setpoint")["throttle"]) == pytest.approx(0.7, abs=0.002)
     reacted(px4, manual_control_lost(px4, run_dir), NAV_RTL, px4.parameter("COM_FAIL_ACT_T"))
     last = last_sent_us(tlog_frames(run_dir), "HEARTBEAT")
