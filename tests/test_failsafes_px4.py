@@ -156,7 +156,7 @@ def test_sticks_and_the_ground_stations_heartbeat_reach_px4_on_its_hitl_path(hit
     joystick, PX4 declares manual control lost COM_RC_LOSS_T after the last sticks and returns after the hold,
     and the ground station lost within COM_DL_LOSS_T (+ its heartbeat timeout) of the last heartbeat.
 
-    The bench's battery does not reach PX4 on this path: mavlink_receiver.cpp's handle_message_hil_sensor (v1.15.4,
+    The bench's battery does not hold on this path: mavlink_receiver.cpp's handle_message_hil_sensor (v1.15.4,
     lines 2345-2358) publishes battery_status at a fixed 16.0 V and 70 % with every HIL_SENSOR (250 Hz) on the
     publication BATTERY_STATUS would use; the bench's pack (full, sagging under load) is overwritten by the next one.
     So PX4's logged battery_status holds those fixed values, or the bench's for the moments between (the logger
