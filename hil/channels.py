@@ -110,6 +110,8 @@ class Environment(_Sample):
 class Timing(_Sample):
     step_wall_us: float = _f("wall time of the step, µs")
     round_trip_us: float | None = _f("sensor frame sent → actuator reply received, µs (None if no reply)")
+    start_monotonic_us: int = _f("the step's start on the machine's monotonic clock (CLOCK_MONOTONIC), µs: the "
+                                 "clock of PX4's log on its HITL path and of cyclictest")
 
 
 class Event(_Sample):

@@ -12,6 +12,7 @@ import time
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from mcap.reader import make_reader
@@ -121,18 +122,21 @@ def short_hover(tmp_path: Path, seconds: float = 3.0) -> Path:
 
 
 @pytest.fixture(scope="module")
-def same_seed_twice(tmp_path_factory) -> tuple[Path, Path]:
-    """One short scenario flown twice with the same seed (no report: the recordings are what is checked)."""
+def same_seed_twice(tmp_path_factory) -> tuple[Path, Path, tuple[int, int]]:
+    """One short scenario flown twice with the same seed (no report: the recordings are what is checked), and the
+    machine's monotonic clock (µs) read before and after the two flights."""
     tmp = tmp_path_factory.mktemp("same_seed")
     scenario = short_hover(tmp)
+    before_us = time.monotonic_ns() // 1000
     flights = [run(scenario, tmp / name, "--no-report") for name in ("a", "b")]
+    after_us = time.monotonic_ns() // 1000
     for result, _ in flights:
         assert result.returncode == 0, result.stdout + result.stderr
-    return flights[0][1], flights[1][1]
+    return flights[0][1], flights[1][1], (before_us, after_us)
 
 
 def test_same_scenario_and_seed_give_identical_recordings_in_lockstep(same_seed_twice):
-    first, second = same_seed_twice
+    first, second, _ = same_seed_twice
     a = simulated_content(first)
     assert a == simulated_content(second)
     assert len(a) > 10_000
@@ -152,6 +156,17 @@ def test_recording_opens_with_the_mcap_reader_and_has_every_channel_at_full_rate
     assert counts["hil/sensors/baro"] == pytest.approx(steps * 50 / 250, abs=2)
     assert counts["hil/sensors/gps"] == pytest.approx(steps * 5 / 250, abs=2)
     assert counts["hil/reference"] > 0 and counts["hil/board/heartbeat"] > 0 and counts["hil/events"] >= 5
+
+
+def test_each_steps_start_is_recorded_on_the_machines_monotonic_clock(same_seed_twice):
+    """hil/timing's start_monotonic_us is CLOCK_MONOTONIC (the clock PX4's log keeps on its HITL path): every step
+    of the first flight starts between this process's readings of that clock around the flights, each after the
+    one before it has ended (its step_wall_us later at least)."""
+    first, _, (before_us, after_us) = same_seed_twice
+    steps = [json.loads(data) for topic, _, data in read_mcap(first / "recording.mcap") if topic == "hil/timing"]
+    starts_us = np.array([s["start_monotonic_us"] for s in steps])
+    assert before_us < starts_us[0] and starts_us[-1] < after_us
+    assert np.all(np.diff(starts_us) >= np.array([s["step_wall_us"] for s in steps[:-1]]) - 1)  # rounded to 1 µs
 
 
 @pytest.mark.usefixtures("fresh_emulators")

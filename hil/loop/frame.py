@@ -28,6 +28,7 @@ class StepFrame:
     board: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # board messages of this step
     board_offset_ned: np.ndarray | None = None  # the board's local frame - the truth, once aligned (at arming)
     step_wall_s: float = 0.0
+    started_s: float = 0.0  # the step's start on the machine's monotonic clock (perf_counter: CLOCK_MONOTONIC)
     round_trip_s: float | None = None
     messages: list[tuple[str, dict[str, Any]]] | None = None  # the channel payloads, built once (recorder)
     sent: list[tuple[str, dict[str, Any]]] = field(default_factory=list)  # battery, sticks sent (hil.loop.senders)

@@ -205,7 +205,7 @@ class Stepper:
         round_trip = timing.lap("board_reply", "wait_for_board", session.link.waited_s - waited_s) - sent
         self._pending = StepFrame(self.t_us, mission_t, decided.phase, truth, decided.reference, readings, gps,
                                   self.motors, self.armed, env, board_offset_ned=decided.board_offset_ned,
-                                  step_wall_s=time.perf_counter() - timing.started,
+                                  step_wall_s=time.perf_counter() - timing.started, started_s=timing.started,
                                   round_trip_s=round_trip if session.lockstep else None, sent=others)
         self._pending_inbox = self.io.take_inbox()
         self._unseen += self._pending_inbox

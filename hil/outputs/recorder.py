@@ -86,7 +86,8 @@ def _build_messages(frame: StepFrame) -> list[tuple[str, dict[str, Any]]]:
                          "torque_frd": e.torque_frd.tolist(), "payload_kg": e.payload_kg,
                          "motor_health": e.motor_health}),
         ("timing", {"t_us": t, "step_wall_us": frame.step_wall_s * 1e6,
-                    "round_trip_us": None if frame.round_trip_s is None else frame.round_trip_s * 1e6}),
+                    "round_trip_us": None if frame.round_trip_s is None else frame.round_trip_s * 1e6,
+                    "start_monotonic_us": round(frame.started_s * 1e6)}),
     ]
     if frame.reference is not None:
         r = frame.reference

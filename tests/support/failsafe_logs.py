@@ -16,7 +16,6 @@ from pyulog import ULog
 
 BENCH_COMPONENT = 51  # firmware_interface.board.BENCH_COMPONENT_ID
 NAV_POSCTL, NAV_LOITER, NAV_RTL, NAV_DESCEND, NAV_LAND = 2, 4, 5, 12, 18  # PX4's vehicle_status.nav_state
-ARMED = 2  # vehicle_status.arming_state
 
 
 def recorded(run_dir: Path, topic: str) -> list[dict[str, Any]]:
@@ -73,35 +72,42 @@ def last_sent_us(frames: list[Frame], kind: str, before_us: int | None = None) -
 
 
 class Px4Log:
-    """PX4's ULog of the run, its times on the bench's clock. In SITL's lockstep PX4's clock is the bench's (PX4
-    sets it from each HIL_SENSOR's time_usec), so they are taken as they are; on PX4's HITL path the two wall
-    clocks are matched at the arming. (Matching them at the arming in lockstep too added the delay of PX4's
-    "Armed" message, one step alone and up to 0.2 s beside another flight: PX4's MAVLink thread is not part of its
-    lockstep.)"""
+    """PX4's ULog of the run on PX4's own clock, with the bench's times put on that clock (`px4_us`). In SITL's
+    lockstep PX4's clock is the bench's: PX4 sets it from each HIL_SENSOR's time_usec. On PX4's HITL path (a build
+    without lockstep) PX4's clock is the machine's CLOCK_MONOTONIC (drv_hrt.cpp, hrt_absolute_time), which the
+    bench records at the start of each step (hil/timing's start_monotonic_us). So a bench time is put on PX4's
+    clock through the step that carried it, slips and all: two clocks matched once, at the arming, drift apart by
+    each slip of a paced bench after a stall of the machine (0.26 s in a CI run on a stalling host)."""
 
     def __init__(self, run_dir: Path, topics: list[str]) -> None:
         (path,) = sorted((run_dir / "px4" / "log").rglob("*.ulg"))
         self.ulog = ULog(str(path), ["vehicle_status", *topics])
-        self.offset_us = 0
         self.lockstep = json.loads((run_dir / "meta.json").read_text())["pacing"] == "lockstep"
-        if not self.lockstep:
-            status = self.data("vehicle_status")
-            armed = int(np.argmax(status["arming_state"] == ARMED))
-            self.offset_us = event_us(run_dir, "board: Armed") - int(status["timestamp"][armed])
+        steps = [] if self.lockstep else recorded(run_dir, "timing")
+        self._step_us = np.array([s["t_us"] for s in steps], dtype=np.int64)
+        self._step_start_monotonic_us = np.array([s["start_monotonic_us"] for s in steps], dtype=np.int64)
+
+    def px4_us(self, bench_us: int) -> int:
+        """A bench time on PX4's clock: itself in lockstep, else the start of the bench's step of that time."""
+        if self.lockstep:
+            return bench_us
+        step = int(np.searchsorted(self._step_us, bench_us))
+        assert self._step_us[step] == bench_us, f"no bench step at {bench_us} us"
+        return int(self._step_start_monotonic_us[step])
 
     def data(self, topic: str, instance: int = 0) -> dict[str, np.ndarray]:
         return self.ulog.get_dataset(topic, instance).data
 
-    def bench_us(self, topic: str) -> np.ndarray:
-        return self.data(topic)["timestamp"].astype(np.int64) + self.offset_us
+    def times(self, topic: str) -> np.ndarray:
+        return self.data(topic)["timestamp"].astype(np.int64)
 
     def changes(self, topic: str, key: str) -> list[tuple[int, float]]:
-        """(bench time, new value) at each change of `key`."""
-        values, t_us = self.data(topic)[key], self.bench_us(topic)
+        """(PX4's time, new value) at each change of `key`."""
+        values, t_us = self.data(topic)[key], self.times(topic)
         return [(int(t_us[i + 1]), float(values[i + 1])) for i in np.nonzero(np.diff(values.astype(float)))[0]]
 
     def first(self, topic: str, key: str, value: float, after_us: int = 0) -> int:
-        """The bench time at which `key` first became `value` after `after_us`."""
+        """PX4's time at which `key` first became `value` after `after_us` (PX4's clock)."""
         return next(t for t, v in self.changes(topic, key) if v == value and t > after_us)
 
     def instances(self, topic: str) -> list[int]:
